@@ -1,0 +1,104 @@
+"""Load, merge and validate the pipeline configuration.
+
+The same JSON Schema (``workflow/schemas/config.schema.yaml``) serves
+Snakemake (``snakemake.utils.validate``) and this module, which turns the
+first violation into one line that names the key and the fix.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+import yaml
+
+
+class ConfigError(ValueError):
+    """A configuration value is invalid; the message is one line."""
+
+
+def deep_merge(base: Mapping[str, Any], overlay: Mapping[str, Any]) -> dict[str, Any]:
+    """Recursive dict merge, as Snakemake merges ``--configfile`` overlays."""
+    out = copy.deepcopy(dict(base))
+    for key, value in overlay.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = deep_merge(out[key], value)
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def load_config(paths: Iterable[str | Path]) -> dict[str, Any]:
+    """Read and merge YAML files in order (later ones override earlier ones)."""
+    merged: dict[str, Any] = {}
+    for path in paths:
+        path = Path(path)
+        try:
+            data = yaml.safe_load(path.read_text()) or {}
+        except FileNotFoundError:
+            raise ConfigError(f"config file {path} not found; pass an existing --configfile") from None
+        except yaml.YAMLError as exc:
+            raise ConfigError(f"config file {path} is not valid YAML ({str(exc).splitlines()[0]}); fix its syntax") from None
+        if not isinstance(data, Mapping):
+            raise ConfigError(f"config file {path} must hold a mapping at the top level")
+        merged = deep_merge(merged, data)
+    return merged
+
+
+def _key_path(error) -> str:
+    parts = []
+    for item in error.absolute_path:
+        parts.append(f"[{item}]" if isinstance(item, int) else (f".{item}" if parts else str(item)))
+    return "".join(parts) or "<top level>"
+
+
+def format_validation_error(error, source: str = "config/config.yaml") -> str:
+    """One line naming the offending key, the rule it breaks and the fix."""
+    description = error.schema.get("description") if isinstance(error.schema, Mapping) else None
+    hint = f" ({description})" if description else ""
+    message = error.message.splitlines()[0]
+    return f"invalid config value at '{_key_path(error)}': {message}{hint}; fix it in {source} or your --configfile/--config overlay"
+
+
+def validate_config(config: Mapping[str, Any], schema_path: str | Path, source: str = "config/config.yaml") -> None:
+    """Validate against the JSON Schema, then check cross-key consistency."""
+    import jsonschema
+
+    schema = yaml.safe_load(Path(schema_path).read_text())
+    validator = jsonschema.Draft202012Validator(schema)
+    error = jsonschema.exceptions.best_match(validator.iter_errors(config))
+    if error is not None:
+        raise ConfigError(format_validation_error(error, source))
+    check_consistency(config, source)
+
+
+def check_consistency(config: Mapping[str, Any], source: str = "config/config.yaml") -> None:
+    """Rules the schema cannot express (references between keys)."""
+    grid_s4 = set(config["ar_training"]["s4"])
+    grid_tau0 = set(config["ar_training"]["tau0"])
+    vv = config["figures"]["vila_valls_2018"]
+    for name, case in vv["ar_cases"].items():
+        if case["s4"] not in grid_s4 or case["tau0"] not in grid_tau0:
+            raise ConfigError(
+                f"invalid config value at 'figures.vila_valls_2018.ar_cases.{name}': "
+                f"(S4={case['s4']}, tau0={case['tau0']}) is not on the ar_training grid; "
+                f"add it to ar_training.s4/tau0 in {source}"
+            )
+    max_order = config["ar_models"]["max_order"]
+    if max(vv["psd_orders"]) > max_order:
+        raise ConfigError(
+            f"invalid config value at 'figures.vila_valls_2018.psd_orders': order {max(vv['psd_orders'])} "
+            f"exceeds ar_models.max_order={max_order}; raise max_order or drop the order in {source}"
+        )
+    if vv["pacf_lags_shown"] > config["ar_models"]["pacf_lags"]:
+        raise ConfigError(
+            "invalid config value at 'figures.vila_valls_2018.pacf_lags_shown': larger than "
+            f"ar_models.pacf_lags={config['ar_models']['pacf_lags']}; fix it in {source}"
+        )
+    n_epochs = config["ar_training"]["duration_s"] / config["sampling"]["ts"]
+    if n_epochs < 20 * max(max_order, config["ar_models"]["pacf_lags"]):
+        raise ConfigError(
+            f"invalid config value at 'ar_training.duration_s': {n_epochs:.0f} epochs are too few to fit "
+            f"AR({max_order}) and a {config['ar_models']['pacf_lags']}-lag PACF; lengthen it in {source}"
+        )

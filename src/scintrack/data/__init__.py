@@ -1,0 +1,1 @@
+"""Datasets: synthetic generators' outputs, versions and the dataset manifest."""

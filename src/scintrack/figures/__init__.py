@@ -1,0 +1,1 @@
+"""Figure renderers: one module per paper, one small function per figure."""

@@ -1,0 +1,167 @@
+"""Atomic NetCDF/text writes, content hashes and provenance attributes.
+
+* :func:`write_netcdf` writes to a temporary file in the target folder and
+  renames it, so a crash never leaves a half-written file where a complete one
+  is expected.
+* :func:`content_hash` hashes the *data values* (names, dims, dtypes, bytes of
+  every variable and coordinate), not the file bytes, which depend on the
+  netCDF/HDF5 library versions.  Attributes are excluded, so provenance that
+  changes from run to run (git commit, paths) does not alter it.
+* :func:`provenance` gives the attributes every result carries.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+import subprocess
+import tempfile
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+import numpy as np
+import xarray as xr
+
+from . import __version__
+
+
+def sha256_file(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(chunk), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def canonical_json(obj: Any) -> str:
+    """JSON with sorted keys and no whitespace variation (for hashing)."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_json_default)
+
+
+def pretty_json(obj: Any) -> str:
+    """Indented JSON with sorted keys (numpy scalars and arrays allowed)."""
+    return json.dumps(obj, sort_keys=True, indent=2, default=_json_default) + "\n"
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"cannot serialise {type(obj).__name__}")
+
+
+def hash_object(obj: Any) -> str:
+    return hashlib.sha256(canonical_json(obj).encode()).hexdigest()
+
+
+def content_hash(ds: xr.Dataset) -> str:
+    """sha256 of a Dataset's values (variables and coordinates, not attributes)."""
+    h = hashlib.sha256()
+    for name in sorted(map(str, ds.variables)):
+        var = ds.variables[name]
+        values = np.ascontiguousarray(var.values)
+        if values.dtype.kind in "US":
+            payload = canonical_json(values.tolist()).encode()
+        elif values.dtype.kind == "O":
+            payload = canonical_json([str(v) for v in values.ravel()]).encode()
+        else:
+            payload = values.astype(values.dtype.newbyteorder("<"), copy=False).tobytes()
+        header = canonical_json({"name": name, "dims": list(var.dims), "shape": list(values.shape), "dtype": values.dtype.str.lstrip("<>|=")})
+        h.update(header.encode())
+        h.update(payload)
+    return h.hexdigest()
+
+
+def git_state(cwd: str | os.PathLike | None = None) -> dict[str, Any]:
+    """Git commit and dirty flag of the working tree ("unknown" outside git)."""
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=cwd, capture_output=True, text=True, check=True, timeout=10
+        ).stdout.strip()
+        dirty = bool(
+            subprocess.run(
+                ["git", "status", "--porcelain", "--untracked-files=no"],
+                cwd=cwd, capture_output=True, text=True, check=True, timeout=10,
+            ).stdout.strip()
+        )
+        return {"git_commit": commit, "git_dirty": dirty}
+    except (OSError, subprocess.SubprocessError):
+        return {"git_commit": "unknown", "git_dirty": True}
+
+
+def provenance(
+    *,
+    config: Mapping[str, Any] | None = None,
+    seed: int | None = None,
+    inputs: Iterable[str | os.PathLike] = (),
+    extra: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Attributes that travel with every dataset and result (NetCDF-safe types)."""
+    state = git_state(Path(__file__).resolve().parent)
+    attrs: dict[str, Any] = {
+        "scintrack_version": __version__,
+        "git_commit": state["git_commit"],
+        "git_dirty": int(state["git_dirty"]),
+        "python_version": platform.python_version(),
+        "input_sha256": canonical_json({str(p): sha256_file(p) for p in inputs}),
+    }
+    if config is not None:
+        attrs["config_sha256"] = hash_object(config)
+    if seed is not None:
+        attrs["seed"] = int(seed)
+    for key, value in (extra or {}).items():
+        attrs[key] = value if isinstance(value, (str, int, float)) else canonical_json(value)
+    return attrs
+
+
+def _atomic_target(path: Path) -> tuple[int, str]:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+
+
+def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = True) -> str:
+    """Write ``ds`` atomically with a ``content_sha256`` attribute; return the hash."""
+    path = Path(path)
+    ds = ds.copy()
+    digest = content_hash(ds)
+    ds.attrs["content_sha256"] = digest
+    encoding = {}
+    if compress:
+        for name, var in ds.data_vars.items():
+            if var.dtype.kind in "fiu" and var.ndim > 0:
+                encoding[name] = {"zlib": True, "complevel": 4}
+    fd, tmp = _atomic_target(path)
+    os.close(fd)
+    try:
+        ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return digest
+
+
+def write_text(text: str | bytes, path: str | os.PathLike) -> None:
+    """Write text or bytes atomically (temporary file, then rename)."""
+    path = Path(path)
+    fd, tmp = _atomic_target(path)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(text.encode() if isinstance(text, str) else text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def open_dataset(path: str | os.PathLike) -> xr.Dataset:
+    """Open a NetCDF result fully into memory (and close the file)."""
+    with xr.open_dataset(path, engine="netcdf4") as ds:
+        return ds.load()

@@ -1,0 +1,1 @@
+"""AR scintillation models: fitting, order selection, spectra and look-up tables."""

@@ -1,0 +1,135 @@
+"""AR look-up table over the (S4, tau0) grid, read by the trackers.
+
+:func:`fit_training_set` fits AR(1..max_order) models, the PACF and the
+selected orders (PACF / AIC / BIC) to every realisation of one CSM training
+dataset; :func:`merge_lut` stacks the per-S4 fits into one table and adds the
+trial averages that trackers use; :func:`lookup` returns the parameters of the
+nearest grid point.
+
+Layout of the table (NetCDF, CF-style attributes):
+
+* ``coef(s4, tau0, component, order, lag)``: trial-mean AR coefficients of the
+  AR(``order``) fit, zero beyond ``lag > order`` (gamma_i for the amplitude,
+  beta_i for the phase);
+* ``const(s4, tau0, component, order)``: kappa (0 for the phase);
+* ``sigma2(s4, tau0, component, order)``: driving-noise variance;
+* ``selected_order(s4, tau0, component, criterion)``: modal order over trials;
+* the same per trial with the ``trial_`` prefix, and the PACF with its band.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import xarray as xr
+
+from .ar import TRENDS, fit_ar, ic_order, pacf_order, pacf_with_bound
+
+COMPONENTS = ("amplitude", "phase")
+CRITERIA = ("pacf", "aic", "bic")
+
+
+def fit_training_set(train: xr.Dataset, max_order: int, pacf_lags: int, alpha: float) -> xr.Dataset:
+    """Per-trial AR fits of one training dataset with dims (tau0, trial, time)."""
+    tau0s = train["tau0"].values
+    trials = train["trial"].values
+    n_t, n_r, n_c = tau0s.size, trials.size, len(COMPONENTS)
+    coef = np.zeros((n_t, n_r, n_c, max_order, max_order))
+    const = np.zeros((n_t, n_r, n_c, max_order))
+    sigma2 = np.zeros((n_t, n_r, n_c, max_order))
+    pacf_v = np.zeros((n_t, n_r, n_c, pacf_lags + 1))
+    pacf_b = np.zeros((n_t, n_r, n_c, pacf_lags + 1))
+    chosen = np.zeros((n_t, n_r, n_c, len(CRITERIA)), dtype=np.int32)
+    for i in range(n_t):
+        for j in range(n_r):
+            for c, comp in enumerate(COMPONENTS):
+                x = np.asarray(train[comp].values[i, j], dtype=float)
+                trend = TRENDS[comp]
+                for o in range(1, max_order + 1):
+                    fit = fit_ar(x, o, trend)
+                    coef[i, j, c, o - 1, :o] = fit.coefs
+                    const[i, j, c, o - 1] = fit.const
+                    sigma2[i, j, c, o - 1] = fit.sigma2
+                values, bound = pacf_with_bound(x, pacf_lags, alpha)
+                pacf_v[i, j, c], pacf_b[i, j, c] = values, bound
+                chosen[i, j, c] = [
+                    pacf_order(values, bound),
+                    ic_order(x, max_order, trend, "aic"),
+                    ic_order(x, max_order, trend, "bic"),
+                ]
+    coords = {
+        "tau0": tau0s,
+        "trial": trials,
+        "component": list(COMPONENTS),
+        "order": np.arange(1, max_order + 1),
+        "lag": np.arange(1, max_order + 1),
+        "pacf_lag": np.arange(pacf_lags + 1),
+        "criterion": list(CRITERIA),
+    }
+    dims = ("tau0", "trial", "component")
+    ds = xr.Dataset(
+        {
+            "trial_coef": (dims + ("order", "lag"), coef, {"long_name": "AR coefficient (gamma_i amplitude, beta_i phase)", "units": "1"}),
+            "trial_const": (dims + ("order",), const, {"long_name": "AR constant kappa (amplitude only)", "units": "1"}),
+            "trial_sigma2": (dims + ("order",), sigma2, {"long_name": "AR driving-noise variance", "units": "1 (amplitude), rad2 (phase)"}),
+            "trial_pacf": (dims + ("pacf_lag",), pacf_v, {"long_name": "sample partial autocorrelation", "units": "1"}),
+            "trial_pacf_bound": (dims + ("pacf_lag",), pacf_b, {"long_name": f"half-width of the {100 * (1 - alpha):g}% band of the PACF around 0", "units": "1"}),
+            "trial_selected_order": (dims + ("criterion",), chosen, {"long_name": "selected AR order", "units": "1"}),
+        },
+        coords=coords,
+    )
+    ds = ds.expand_dims(s4=[float(train["s4"].values)])
+    ds.attrs.update({"pacf_alpha": alpha, "max_order": max_order, "estimator": "statsmodels AutoReg (conditional ML / OLS)", "pacf_method": "statsmodels pacf(method='ols')"})
+    return ds
+
+
+def _mode(values: np.ndarray, axis: int) -> np.ndarray:
+    """Smallest most frequent value along ``axis`` (ties go to the lower order)."""
+    moved = np.moveaxis(values, axis, -1)
+    out = np.empty(moved.shape[:-1], dtype=values.dtype)
+    for idx in np.ndindex(out.shape):
+        vals, counts = np.unique(moved[idx], return_counts=True)
+        out[idx] = vals[np.argmax(counts)]
+    return out
+
+
+def merge_lut(fits: Sequence[xr.Dataset]) -> xr.Dataset:
+    """Combine per-S4 fit datasets into the AR look-up table."""
+    lut = xr.concat(list(fits), dim="s4").sortby("s4")
+    lut["coef"] = lut["trial_coef"].mean("trial").assign_attrs(lut["trial_coef"].attrs, long_name="trial-mean AR coefficient")
+    lut["const"] = lut["trial_const"].mean("trial").assign_attrs(lut["trial_const"].attrs)
+    lut["sigma2"] = lut["trial_sigma2"].mean("trial").assign_attrs(lut["trial_sigma2"].attrs)
+    sel = lut["trial_selected_order"]
+    lut["selected_order"] = (
+        ("s4", "tau0", "component", "criterion"),
+        _mode(sel.transpose("s4", "tau0", "component", "criterion", "trial").values, axis=-1),
+        {"long_name": "modal selected AR order over trials", "units": "1"},
+    )
+    lut["s4"].attrs.update(long_name="amplitude scintillation index S4", units="1")
+    lut["tau0"].attrs.update(long_name="scintillation decorrelation time tau0", units="s")
+    return lut
+
+
+@dataclass(frozen=True)
+class ArParameters:
+    """AR parameters of one component at one grid point."""
+
+    coefs: np.ndarray
+    const: float
+    sigma2: float
+    s4: float
+    tau0: float
+
+
+def lookup(lut: xr.Dataset, s4: float, tau0: float, component: str, order: int) -> ArParameters:
+    """Parameters of AR(``order``) at the grid point nearest to (s4, tau0)."""
+    point = lut.sel(s4=s4, tau0=tau0, method="nearest").sel(component=component, order=order)
+    return ArParameters(
+        coefs=point["coef"].values[:order].copy(),
+        const=float(point["const"].values),
+        sigma2=float(point["sigma2"].values),
+        s4=float(point["s4"].values),
+        tau0=float(point["tau0"].values),
+    )

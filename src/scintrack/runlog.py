@@ -1,0 +1,27 @@
+"""Logging for workflow scripts: messages and warnings go to the rule's log file."""
+
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+
+
+def setup(log_path: str | None, name: str) -> logging.Logger:
+    """A logger writing to ``log_path`` (and stderr); Python warnings are captured."""
+    logger = logging.getLogger(name)
+    logger.setLevel(logging.INFO)
+    logger.handlers.clear()
+    fmt = logging.Formatter("%(levelname)s %(name)s: %(message)s")
+    if log_path:
+        Path(log_path).parent.mkdir(parents=True, exist_ok=True)
+        fh = logging.FileHandler(log_path, mode="w")
+        fh.setFormatter(fmt)
+        logger.addHandler(fh)
+        logging.captureWarnings(True)
+        logging.getLogger("py.warnings").addHandler(fh)
+    sh = logging.StreamHandler(sys.stderr)
+    sh.setFormatter(fmt)
+    sh.setLevel(logging.WARNING)
+    logger.addHandler(sh)
+    return logger

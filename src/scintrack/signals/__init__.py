@@ -1,0 +1,1 @@
+"""Signal generators: CSM scintillation (and, later, dynamics, correlators, jamming)."""

@@ -1,0 +1,1 @@
+"""Table renderers: one module per paper, one small function per table."""

@@ -1,0 +1,49 @@
+# AR model rules (Vila-Valls 2018, Sec. III-B/C): fits per S4, the look-up
+# table over the (S4, tau0) grid, and the diagnostics behind Figs. 1-4.
+
+
+rule ar_fit:
+    """AR(1..max_order), PACF and PACF/AIC/BIC orders for one training set."""
+    input:
+        lambda wc: training_path(wc.s4),
+    output:
+        "results/ar_models/fits/s4-{s4}.nc",
+    params:
+        ar=config["ar_models"],
+    log:
+        "logs/ar_models/fit_s4-{s4}.log",
+    benchmark:
+        "results/benchmarks/ar_fit/s4-{s4}.tsv"
+    script:
+        "../scripts/fit_ar.py"
+
+
+rule ar_lut:
+    """AR look-up table (S4 x tau0 x component) read by the trackers."""
+    input:
+        expand("results/ar_models/fits/s4-{s4}.nc", s4=TRAIN_S4),
+    output:
+        AR_LUT,
+    log:
+        "logs/ar_models/ar_lut.log",
+    benchmark:
+        "results/benchmarks/ar_lut.tsv"
+    script:
+        "../scripts/merge_lut.py"
+
+
+rule ar_diagnostics:
+    """Welch PSD, AR(1..4) model PSDs and PACF of the Figs. 1-4 cases."""
+    input:
+        lut=AR_LUT,
+        train=lambda wc: sorted({training_path(c["s4"]) for c in config["figures"]["vila_valls_2018"]["ar_cases"].values()}),
+    output:
+        VV_DIAGNOSTICS,
+    params:
+        cases=config["figures"]["vila_valls_2018"]["ar_cases"],
+        orders=config["figures"]["vila_valls_2018"]["psd_orders"],
+        nperseg=config["figures"]["vila_valls_2018"]["welch_nperseg"],
+    log:
+        "logs/vila_valls_2018/ar_diagnostics.log",
+    script:
+        "../scripts/ar_diagnostics.py"

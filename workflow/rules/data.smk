@@ -1,0 +1,28 @@
+# Data rules: synthetic datasets (versioned by a hash of generator + parameters)
+# and the dataset manifest built from their attributes.
+
+
+rule csm_training_set:
+    """CSM amplitude/phase for one S4 over the tau0 grid (AR training data)."""
+    output:
+        ensure("data/synthetic/csm_train_s4-{s4}/{version}.nc", non_empty=True),
+    params:
+        dataset=lambda wc: csm_training_params(config, float(wc.s4)),
+    log:
+        "logs/data/csm_train_s4-{s4}_{version}.log",
+    benchmark:
+        "results/benchmarks/csm_training_set/s4-{s4}_{version}.tsv"
+    script:
+        "../scripts/make_csm_training.py"
+
+
+rule dataset_manifest:
+    """Name, version, source and checksums of every dataset of this run."""
+    input:
+        TRAINING_SETS,
+    output:
+        DATASET_MANIFEST,
+    log:
+        "logs/data/dataset_manifest.log",
+    script:
+        "../scripts/dataset_manifest.py"

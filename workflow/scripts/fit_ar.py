@@ -1,0 +1,15 @@
+"""AR rule entry point: fit AR models to one training dataset."""
+
+from scintrack import runlog
+from scintrack.io import open_dataset, provenance, write_netcdf
+from scintrack.models.lut import fit_training_set
+
+sm = snakemake  # noqa: F821
+log = runlog.setup(sm.log[0], "ar_fit")
+ar = sm.params.ar
+train = open_dataset(sm.input[0])
+fits = fit_training_set(train, ar["max_order"], ar["pacf_lags"], ar["pacf_alpha"])
+fits.attrs.update(provenance(config=sm.config, inputs=sm.input))
+fits.attrs["ts"] = train.attrs["ts"]
+write_netcdf(fits, sm.output[0])
+log.info("fitted %s", sm.input[0])
