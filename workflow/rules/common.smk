@@ -17,7 +17,10 @@ def _validate_config():
         validate(config, "../schemas/config.schema.yaml")
         check_consistency(config)
     except WorkflowError as exc:
-        cause = next((a for a in exc.args if hasattr(a, "absolute_path")), None)
+        # snakemake.utils.validate raises WorkflowError from inside the
+        # handler of the jsonschema ValidationError, which is its context.
+        cause = exc.__cause__ or exc.__context__
+        cause = cause if hasattr(cause, "absolute_path") else None
         if cause is None:
             raise
         raise WorkflowError(format_validation_error(cause)) from None
@@ -60,4 +63,6 @@ VV_TABLES = [
     f"{VV_TAB}/table01_ar_orders.md",
     f"{VV_TAB}/table01_ar_orders_vs_paper.csv",
     f"{VV_TAB}/table01_ar_orders_vs_paper.md",
+    f"{VV_TAB}/table01s_pacf_order_vs_length.csv",
+    f"{VV_TAB}/table01s_pacf_order_vs_length.md",
 ]

@@ -9,6 +9,7 @@ log = runlog.setup(sm.log[0], "ar_lut")
 fits = [open_dataset(p) for p in sm.input]
 lut = merge_lut(fits)
 lut.attrs.update(provenance(config=sm.config, inputs=sm.input))
+lut.attrs["ts"] = fits[0].attrs["ts"]
 lut.attrs["title"] = "AR scintillation look-up table (CSM, Vila-Valls 2018 Sec. III)"
 write_netcdf(lut, sm.output[0])
 log.info("look-up table over %d S4 x %d tau0", lut.sizes["s4"], lut.sizes["tau0"])

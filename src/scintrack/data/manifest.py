@@ -8,8 +8,8 @@ datasets' *expected* checksums live in the tracked ``data/registry.yaml``.
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable
 
 import xarray as xr
 

@@ -7,7 +7,8 @@ disk (phase resolution better than 1e-5 rad for the ranges seen).
 
 from __future__ import annotations
 
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import xarray as xr

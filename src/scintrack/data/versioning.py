@@ -8,7 +8,8 @@ generator's name, its ``GENERATOR_VERSION`` constant and every parameter
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 from ..io import hash_object
 

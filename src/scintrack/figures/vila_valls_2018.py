@@ -36,7 +36,7 @@ def ar_psd_figure(diag: xr.Dataset, component: str, fig_no: int):
         ax.set_xlabel("frequency [Hz]")
         ax.set_ylabel(f"PSD [{PSD_UNITS[component]}]")
         ax.legend(loc="lower left", ncol=3)
-    fig.suptitle(f"Fig. {fig_no}: scintillation {COMPONENT_LABEL[component]}, CSM vs fitted AR PSDs (synthetic CSM, $T_s$ = 10 ms)")
+    fig.suptitle(f"Fig. {fig_no}: PSD of the scintillation {COMPONENT_LABEL[component]} and of fitted AR models\n(synthetic CSM data, $T_s$ = 10 ms)")
     fig.tight_layout()
     return fig
 
@@ -51,9 +51,12 @@ def pacf_figure(diag: xr.Dataset, component: str, fig_no: int, lags_shown: int):
         lags = d["pacf_lag"].values[1 : lags_shown + 1]
         vals = d["pacf"].values[1 : lags_shown + 1]
         bound = d["pacf_bound"].values[1 : lags_shown + 1]
+        outside = np.abs(vals) > bound
         ax.vlines(lags, 0, vals, color="tab:blue", lw=1.5)
-        ax.plot(lags, vals, "o", color="tab:blue", ms=4, label="sample PACF")
-        ax.fill_between(lags, -bound, bound, color="tab:red", alpha=0.2, step="mid", label="95% band")
+        ax.plot(lags[outside], vals[outside], "o", color="tab:blue", ms=5, label="sample PACF (outside band)")
+        ax.plot(lags[~outside], vals[~outside], "o", mfc="white", color="tab:blue", ms=5, label="sample PACF (inside band)")
+        ax.plot(lags, bound, "--", color="tab:red", lw=1.0, label=f"95% band $\\pm${bound.mean():.3f}")
+        ax.plot(lags, -bound, "--", color="tab:red", lw=1.0)
         ax.axhline(0, color="k", lw=0.6)
         ax.set_xticks(lags)
         ax.set_ylim(-1.05, 1.05)
@@ -61,7 +64,7 @@ def pacf_figure(diag: xr.Dataset, component: str, fig_no: int, lags_shown: int):
         ax.set_xlabel("lag")
         ax.set_ylabel("partial autocorrelation")
         ax.legend(loc="upper right")
-    fig.suptitle(f"Fig. {fig_no}: sample PACF of the scintillation {COMPONENT_LABEL[component]} (synthetic CSM)")
+    fig.suptitle(f"Fig. {fig_no}: sample PACF of the scintillation {COMPONENT_LABEL[component]}\n(synthetic CSM data, $T_s$ = 10 ms)")
     fig.tight_layout()
     return fig
 

@@ -7,7 +7,7 @@ look-up table (no refit), plus the PACF and its 95% band.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import xarray as xr

@@ -19,20 +19,29 @@ Layout of the table (NetCDF, CF-style attributes):
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 import xarray as xr
 
-from .ar import TRENDS, fit_ar, ic_order, pacf_order, pacf_with_bound
+from .ar import TRENDS, fit_orders, ic_order, pacf_order, pacf_with_bound
 
 COMPONENTS = ("amplitude", "phase")
 CRITERIA = ("pacf", "aic", "bic")
 
 
-def fit_training_set(train: xr.Dataset, max_order: int, pacf_lags: int, alpha: float) -> xr.Dataset:
-    """Per-trial AR fits of one training dataset with dims (tau0, trial, time)."""
+def fit_training_set(
+    train: xr.Dataset, max_order: int, pacf_lags: int, alpha: float, pacf_lengths_s: Sequence[float] = ()
+) -> xr.Dataset:
+    """Per-trial AR fits of one training dataset with dims (tau0, trial, time).
+
+    ``pacf_lengths_s`` adds the PACF-rule order measured on the first
+    ``L`` seconds of each series (the 95% band widens as 1/sqrt(N)), to show
+    how the selected order depends on the length of the data.
+    """
+    ts = float(train.attrs["ts"])
+    lengths = [L for L in pacf_lengths_s if int(round(L / ts)) <= train.sizes["time"]]
     tau0s = train["tau0"].values
     trials = train["trial"].values
     n_t, n_r, n_c = tau0s.size, trials.size, len(COMPONENTS)
@@ -42,13 +51,14 @@ def fit_training_set(train: xr.Dataset, max_order: int, pacf_lags: int, alpha: f
     pacf_v = np.zeros((n_t, n_r, n_c, pacf_lags + 1))
     pacf_b = np.zeros((n_t, n_r, n_c, pacf_lags + 1))
     chosen = np.zeros((n_t, n_r, n_c, len(CRITERIA)), dtype=np.int32)
+    by_length = np.zeros((n_t, n_r, n_c, len(lengths)), dtype=np.int32)
     for i in range(n_t):
         for j in range(n_r):
             for c, comp in enumerate(COMPONENTS):
                 x = np.asarray(train[comp].values[i, j], dtype=float)
                 trend = TRENDS[comp]
-                for o in range(1, max_order + 1):
-                    fit = fit_ar(x, o, trend)
+                fits = fit_orders(x, max_order, trend)
+                for o, fit in enumerate(fits, start=1):
                     coef[i, j, c, o - 1, :o] = fit.coefs
                     const[i, j, c, o - 1] = fit.const
                     sigma2[i, j, c, o - 1] = fit.sigma2
@@ -56,9 +66,11 @@ def fit_training_set(train: xr.Dataset, max_order: int, pacf_lags: int, alpha: f
                 pacf_v[i, j, c], pacf_b[i, j, c] = values, bound
                 chosen[i, j, c] = [
                     pacf_order(values, bound),
-                    ic_order(x, max_order, trend, "aic"),
-                    ic_order(x, max_order, trend, "bic"),
+                    ic_order(fits, "aic"),
+                    ic_order(fits, "bic"),
                 ]
+                for k, length in enumerate(lengths):
+                    by_length[i, j, c, k] = pacf_order(*pacf_with_bound(x[: int(round(length / ts))], pacf_lags, alpha))
     coords = {
         "tau0": tau0s,
         "trial": trials,
@@ -67,6 +79,7 @@ def fit_training_set(train: xr.Dataset, max_order: int, pacf_lags: int, alpha: f
         "lag": np.arange(1, max_order + 1),
         "pacf_lag": np.arange(pacf_lags + 1),
         "criterion": list(CRITERIA),
+        "pacf_length": ("pacf_length", np.asarray(lengths, dtype=float), {"long_name": "length of the series used for the PACF", "units": "s"}),
     }
     dims = ("tau0", "trial", "component")
     ds = xr.Dataset(
@@ -77,6 +90,7 @@ def fit_training_set(train: xr.Dataset, max_order: int, pacf_lags: int, alpha: f
             "trial_pacf": (dims + ("pacf_lag",), pacf_v, {"long_name": "sample partial autocorrelation", "units": "1"}),
             "trial_pacf_bound": (dims + ("pacf_lag",), pacf_b, {"long_name": f"half-width of the {100 * (1 - alpha):g}% band of the PACF around 0", "units": "1"}),
             "trial_selected_order": (dims + ("criterion",), chosen, {"long_name": "selected AR order", "units": "1"}),
+            "trial_pacf_order_by_length": (dims + ("pacf_length",), by_length, {"long_name": "PACF-rule order on the first pacf_length seconds", "units": "1"}),
         },
         coords=coords,
     )

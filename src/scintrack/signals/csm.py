@@ -34,8 +34,8 @@ Choices of ours (documented in ``docs/modelling-choices.md``):
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 from scipy import signal

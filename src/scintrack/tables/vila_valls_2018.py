@@ -17,15 +17,35 @@ def _order_summary(orders: np.ndarray) -> tuple[int, float, int, int]:
     return mode, float(counts.max() / counts.sum()), int(vals.min()), int(vals.max())
 
 
+def _regions(lut: xr.Dataset):
+    s4 = lut["s4"].values
+    for region, lo, hi in REGIONS:
+        in_region = s4[(s4 > lo) & (s4 <= hi)]
+        if in_region.size:
+            yield region, in_region
+
+
+def table01_by_length(lut: xr.Dataset) -> pd.DataFrame:
+    """Supplement to Table I: PACF-rule order against the length of the series."""
+    rows = []
+    sel = lut["trial_pacf_order_by_length"]
+    for region, in_region in _regions(lut):
+        for component, sym in (("amplitude", "q"), ("phase", "p")):
+            row = {"region": region, "order": sym, "paper": VILA_VALLS_2018_TABLE_I[region][component]}
+            for length in sel["pacf_length"].values:
+                orders = sel.sel(s4=in_region, component=component, pacf_length=length).values.ravel()
+                mode, share, lo_o, hi_o = _order_summary(orders)
+                band = 1.959964 / np.sqrt(length / float(lut.attrs["ts"]))
+                row[f"{length:g} s (band +-{band:.3f})"] = f"AR({mode}) [{share:.0%}; {lo_o}-{hi_o}]"
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
 def table01_long(lut: xr.Dataset) -> pd.DataFrame:
     """Table I in long form: region x component x criterion, over all fits in the region."""
     rows = []
     sel = lut["trial_selected_order"]
-    for region, lo, hi in REGIONS:
-        s4 = lut["s4"].values
-        in_region = s4[(s4 > lo) & (s4 <= hi)]
-        if in_region.size == 0:
-            continue
+    for region, in_region in _regions(lut):
         for component in ("amplitude", "phase"):
             paper = VILA_VALLS_2018_TABLE_I[region][component]
             for criterion in sel["criterion"].values:

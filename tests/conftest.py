@@ -1,0 +1,33 @@
+"""Shared fixtures: repository paths and one smoke run of the whole DAG per session."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+BIN = Path(sys.executable).parent
+SNAKEMAKE = str(BIN / "snakemake")
+
+
+def run_snakemake(workdir: Path, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    """Run the repository's Snakefile with the smoke overlay in ``workdir``."""
+    cmd = [
+        SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
+        "--configfile", str(REPO / "config" / "smoke.yaml"), "--cores", "2", *args,
+    ]
+    env = dict(os.environ, PYTHONHASHSEED="0")
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+
+
+@pytest.fixture(scope="session")
+def smoke_run(tmp_path_factory) -> Path:
+    """The smoke DAG built once in a fresh folder; returns that folder."""
+    workdir = tmp_path_factory.mktemp("smoke")
+    proc = run_snakemake(workdir, "-q")
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    return workdir

@@ -1,0 +1,79 @@
+"""Configuration validation: schema bounds and one-line errors naming the key."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+import yaml
+from conftest import REPO, run_snakemake
+
+from scintrack.config import ConfigError, load_config, validate_config
+
+SCHEMA = REPO / "workflow" / "schemas" / "config.schema.yaml"
+
+
+@pytest.fixture()
+def config():
+    return load_config([REPO / "config" / "config.yaml"])
+
+
+def test_shipped_configs_are_valid(config):
+    validate_config(config, SCHEMA)
+    validate_config(load_config([REPO / "config" / "config.yaml", REPO / "config" / "smoke.yaml"]), SCHEMA)
+
+
+@pytest.mark.parametrize(
+    "path, value, key",
+    [
+        (("ar_training", "s4", 0), -1, "ar_training.s4[0]"),
+        (("ar_training", "s4", 1), 1.6, "ar_training.s4[1]"),
+        (("ar_training", "tau0", 0), 0.0, "ar_training.tau0[0]"),
+        (("sampling", "ts"), -0.01, "sampling.ts"),
+        (("seed",), "abc", "seed"),
+    ],
+)
+def test_bad_value_names_the_key(config, path, value, key):
+    bad = copy.deepcopy(config)
+    target = bad
+    for p in path[:-1]:
+        target = target[p]
+    target[path[-1]] = value
+    with pytest.raises(ConfigError) as err:
+        validate_config(bad, SCHEMA)
+    message = str(err.value)
+    assert f"'{key}'" in message and "\n" not in message
+
+
+def test_figure_case_off_grid_is_rejected(config):
+    bad = copy.deepcopy(config)
+    bad["figures"]["vila_valls_2018"]["ar_cases"]["severe"]["s4"] = 0.95
+    with pytest.raises(ConfigError, match="ar_cases.severe"):
+        validate_config(bad, SCHEMA)
+
+
+def test_unknown_key_is_rejected(config):
+    bad = copy.deepcopy(config)
+    bad["ar_training"]["trails"] = 3
+    with pytest.raises(ConfigError, match="trails"):
+        validate_config(bad, SCHEMA)
+
+
+def test_missing_file_and_bad_yaml(tmp_path):
+    with pytest.raises(ConfigError, match="not found"):
+        load_config([tmp_path / "nope.yaml"])
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("a: [1, 2\n")
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        load_config([broken])
+
+
+def test_snakemake_stops_on_bad_value_with_one_line(tmp_path):
+    overlay = tmp_path / "bad.yaml"
+    overlay.write_text(yaml.safe_dump({"ar_training": {"s4": [-1, 0.5]}}))
+    proc = run_snakemake(tmp_path, "-n", "--configfile", str(overlay))
+    assert proc.returncode != 0
+    out = proc.stdout + proc.stderr
+    lines = [line for line in out.splitlines() if "invalid config value at 'ar_training.s4[0]'" in line]
+    assert len(lines) == 1, out[-2000:]
+    assert not (tmp_path / "data").exists()

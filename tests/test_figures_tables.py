@@ -1,0 +1,80 @@
+"""Figure byte-stability and Table I summaries on constructed inputs."""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from scintrack.figures import vila_valls_2018 as figs
+from scintrack.figures.common import read_checksums, save_figure, update_checksums
+from scintrack.tables.vila_valls_2018 import table01_long, table01_twin
+
+
+def _diag():
+    freqs = np.linspace(0, 50, 65)
+    rng = np.random.default_rng(0)
+    shape = (2, 2)
+    return xr.Dataset(
+        {
+            "psd_empirical": (("case", "component", "freq"), rng.uniform(0.1, 1, shape + (65,))),
+            "psd_ar": (("case", "component", "order", "freq"), rng.uniform(0.1, 1, shape + (4, 65))),
+            "pacf": (("case", "component", "pacf_lag"), rng.uniform(-1, 1, shape + (7,))),
+            "pacf_bound": (("case", "component", "pacf_lag"), np.full(shape + (7,), 0.05)),
+            "s4": ("case", [0.9, 0.5]),
+            "tau0": ("case", [0.1, 0.4]),
+        },
+        coords={"case": ["severe", "moderate"], "component": ["amplitude", "phase"], "order": [1, 2, 3, 4], "freq": freqs, "pacf_lag": np.arange(7)},
+    )
+
+
+def test_figures_are_byte_stable(tmp_path):
+    diag = _diag()
+    first = save_figure(figs.fig01(diag), [tmp_path / "a.pdf", tmp_path / "a.png"])
+    second = save_figure(figs.fig01(diag), [tmp_path / "b.pdf", tmp_path / "b.png"])
+    for x, y in zip(first, second):
+        assert x.read_bytes() == y.read_bytes()
+    assert b"CreationDate" not in first[0].read_bytes()
+
+
+def test_every_figure_function_renders(tmp_path):
+    diag = _diag()
+    for fig in (figs.fig01(diag), figs.fig02(diag, 6), figs.fig03(diag), figs.fig04(diag, 6)):
+        save_figure(fig, [tmp_path / "x.png"])
+        assert (tmp_path / "x.png").stat().st_size > 10_000
+
+
+def test_checksum_file_keeps_other_entries(tmp_path):
+    (tmp_path / "sub").mkdir()
+    a, b = tmp_path / "sub" / "a.txt", tmp_path / "sub" / "b.txt"
+    a.write_text("a")
+    b.write_text("b")
+    update_checksums(tmp_path, [a])
+    update_checksums(tmp_path, [b])
+    a.write_text("A")
+    update_checksums(tmp_path, [a])
+    sums = read_checksums(tmp_path / "SHA256SUMS")
+    assert set(sums) == {"sub/a.txt", "sub/b.txt"}
+    assert sums["sub/a.txt"] == "559aead08264d5795d3909718cdd05abd49572e84fe55590eef31a88a08fdffd"  # sha256("A")
+
+
+def _lut(orders):
+    s4 = [0.2, 0.5, 0.9]
+    data = np.zeros((3, 1, 2, 2, 3), dtype=np.int32)  # s4, tau0, trial, component, criterion
+    for i, s in enumerate(s4):
+        data[i] = orders[s]
+    return xr.Dataset(
+        {"trial_selected_order": (("s4", "tau0", "trial", "component", "criterion"), data)},
+        coords={"s4": s4, "tau0": [0.1], "trial": [0, 1], "component": ["amplitude", "phase"], "criterion": ["pacf", "aic", "bic"]},
+    )
+
+
+def test_table01_modes_and_shares():
+    one = np.array([[[3, 3, 3], [1, 1, 1]], [[3, 4, 4], [2, 2, 2]]])  # trial x component x criterion
+    lut = _lut({0.2: one, 0.5: one, 0.9: one})
+    long = table01_long(lut)
+    row = long[(long.region == "severe") & (long.component == "amplitude") & (long.criterion == "aic")].iloc[0]
+    assert row.modal_order == 3 and row.share_of_fits == 0.5 and row.max_order == 4  # tie -> lower order
+    phase = long[(long.region == "severe") & (long.component == "phase") & (long.criterion == "pacf")].iloc[0]
+    assert phase.modal_order == 1 and phase.matches_paper
+    twin = table01_twin(long)
+    assert list(twin.region) == ["severe", "moderate", "low"]
