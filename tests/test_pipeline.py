@@ -64,7 +64,10 @@ def test_one_figure_builds_only_what_it_needs(tmp_path):
     assert proc.returncode == 0, proc.stderr[-2000:]
     jobs = proc.stdout
     assert re.search(r"^fig01\s+1$", jobs, re.M)
-    for other in ("fig02", "fig03", "fig04", "table01", "dataset_manifest"):
+    # the two S4 values of the figure's cases, not the whole grid, and no look-up table
+    assert re.search(r"^csm_training_set\s+2$", jobs, re.M)
+    assert re.search(r"^ar_fit\s+2$", jobs, re.M)
+    for other in ("fig02", "fig03", "fig04", "table01", "dataset_manifest", "ar_lut"):
         assert not re.search(rf"^{other}\s", jobs, re.M), other
 
 

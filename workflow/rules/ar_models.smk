@@ -35,8 +35,8 @@ rule ar_lut:
 rule ar_diagnostics:
     """Welch PSD, AR(1..4) model PSDs and PACF of the Figs. 1-4 cases."""
     input:
-        lut=AR_LUT,
-        train=lambda wc: sorted({training_path(c["s4"]) for c in config["figures"]["vila_valls_2018"]["ar_cases"].values()}),
+        fits=sorted({f"results/ar_models/fits/s4-{fmt(c['s4'])}.nc" for c in config["figures"]["vila_valls_2018"]["ar_cases"].values()}),
+        train=sorted({training_path(c["s4"]) for c in config["figures"]["vila_valls_2018"]["ar_cases"].values()}),
     output:
         VV_DIAGNOSTICS,
     params:

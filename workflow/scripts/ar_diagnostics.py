@@ -8,13 +8,14 @@ from scintrack.models.diagnostics import ar_diagnostics
 
 sm = snakemake  # noqa: F821
 log = runlog.setup(sm.log[0], "ar_diagnostics")
-lut = open_dataset(sm.input.lut)
+# Only the fits of the S4 values shown: a figure never waits for the whole grid.
+fits = xr.concat([open_dataset(p) for p in sm.input.fits], dim="s4")
 trains = {float(ds["s4"]): ds for ds in map(open_dataset, sm.input.train)}
 parts = []
 for case, point in sm.params.cases.items():
     parts.append(
         ar_diagnostics(
-            trains[float(point["s4"])], lut, s4=point["s4"], tau0=point["tau0"], trial=0,
+            trains[float(point["s4"])], fits, s4=point["s4"], tau0=point["tau0"], trial=0,
             orders=sm.params.orders, nperseg=sm.params.nperseg, case=case,
         )
     )

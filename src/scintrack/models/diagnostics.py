@@ -1,8 +1,9 @@
 """Spectral and PACF diagnostics of the AR fits (data behind Figs. 1-4).
 
 For one realisation of a training dataset, computes the empirical PSD with
-``scipy.signal.welch`` and the model PSDs of the AR fits already stored in the
-look-up table (no refit), plus the PACF and its 95% band.
+``scipy.signal.welch`` and the model PSDs of the per-trial AR fits (the
+``trial_*`` variables of :func:`scintrack.models.lut.fit_training_set`; no
+refit), plus the PACF and its 95% band.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from .lut import COMPONENTS
 
 def ar_diagnostics(
     train: xr.Dataset,
-    lut: xr.Dataset,
+    fits: xr.Dataset,
     *,
     s4: float,
     tau0: float,
@@ -32,7 +33,7 @@ def ar_diagnostics(
     ts = float(train.attrs["ts"])
     fs = 1.0 / ts
     point = train.sel(tau0=tau0, trial=trial)
-    fit = lut.sel(s4=s4, tau0=tau0, trial=trial)
+    fit = fits.sel(s4=s4, tau0=tau0, trial=trial)
     psd_emp, psd_ar, pacf, bound = [], [], [], []
     freqs = None
     for comp in COMPONENTS:
@@ -57,7 +58,7 @@ def ar_diagnostics(
             "component": list(COMPONENTS),
             "order": list(orders),
             "freq": ("freq", freqs, {"units": "Hz", "long_name": "frequency"}),
-            "pacf_lag": lut["pacf_lag"].values,
+            "pacf_lag": fits["pacf_lag"].values,
         },
     )
     ds = ds.expand_dims(case=[case])
