@@ -30,5 +30,9 @@ rule all:
 # Vila-Valls et al. 2018, Sec. III: CSM data and AR scintillation models.
 include: "workflow/rules/data.smk"
 include: "workflow/rules/ar_models.smk"
+
+
+# Sec. VI-A..D and F: five trackers on CSM data (experiments -> figures/tables).
+include: "workflow/rules/experiments.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/tables.smk"

@@ -11,7 +11,12 @@ from conftest import REPO, SNAKEMAKE, run_snakemake
 from scintrack.figures.common import read_checksums
 from scintrack.io import content_hash, open_dataset, sha256_file
 
-FIGS = ["fig01_csm_amplitude_psd_ar", "fig02_csm_amplitude_pacf", "fig03_csm_phase_psd_ar", "fig04_csm_phase_pacf"]
+FIGS = [
+    "fig01_csm_amplitude_psd_ar", "fig02_csm_amplitude_pacf", "fig03_csm_phase_psd_ar", "fig04_csm_phase_pacf",
+    "fig06_rmse_free_and_ssm_equivalence", "fig07_rmse_severe_moderate", "fig08_rmse_ar_mismatch", "fig09_rmse_time_varying", "fig16_cycle_slip_examples",
+]
+TABLES = ["table01_ar_orders", "table01_ar_orders_vs_paper", "table01s_pacf_order_vs_length", "table02_ssm_equivalence", "table03_steady_state_rmse",
+          "table03_steady_state_rmse_vs_paper", "table04_ar_mismatch_vs_paper", "table07_cycle_slips_vs_paper", "tableS1_ar_world", "tableS2_q_sensitivity"]
 
 
 def test_smoke_outputs_exist_and_checksums_hold(smoke_run):
@@ -22,7 +27,10 @@ def test_smoke_outputs_exist_and_checksums_hold(smoke_run):
             rel = f"vila_valls_2018/{stem}.{ext}"
             assert sums[rel] == sha256_file(fig_dir / rel)
     tab_sums = read_checksums(smoke_run / "tables" / "SHA256SUMS")
-    assert len(tab_sums) == 6
+    on_disk = {p.relative_to(smoke_run / "tables").as_posix() for p in (smoke_run / "tables").rglob("*.*") if p.name != "SHA256SUMS" and not p.name.startswith(".")}
+    assert set(tab_sums) == on_disk
+    for stem in TABLES:
+        assert f"vila_valls_2018/{stem}.csv" in tab_sums and f"vila_valls_2018/{stem}.md" in tab_sums
     for rel, digest in tab_sums.items():
         assert digest == sha256_file(smoke_run / "tables" / rel)
 
@@ -84,3 +92,13 @@ def test_lint_reports_only_missing_conda_envs():
     items = [line.strip() for line in (proc.stdout + proc.stderr).splitlines() if line.lstrip().startswith("* ")]
     assert items, "snakemake --lint printed no lint at all (expected the conda/container ones)"
     assert all("conda environment or container" in item for item in items), items
+
+
+def test_experiment_results_have_statistics_and_twins(smoke_run):
+    res = open_dataset(smoke_run / "results" / "experiments" / "cycle_slips" / "slips_case3.nc")
+    assert int(res["n_trials"]) == 4 and res.sizes["trial"] == 4  # two shards merged
+    assert res.attrs["content_sha256"] == content_hash(res)
+    assert (res["rmse_lo"] <= res["rmse"]).all() and (res["rmse"] <= res["rmse_hi"]).all()
+    twin = pd.read_csv(smoke_run / "tables" / "vila_valls_2018" / "table03_steady_state_rmse_vs_paper.csv")
+    assert {"paper", "reproduced", "ci95_lo", "ci95_hi", "ratio_reproduced_over_paper"} <= set(twin.columns)
+    assert len(twin) == 30

@@ -97,9 +97,32 @@ def check_consistency(config: Mapping[str, Any], source: str = "config/config.ya
             "invalid config value at 'figures.vila_valls_2018.pacf_lags_shown': larger than "
             f"ar_models.pacf_lags={config['ar_models']['pacf_lags']}; fix it in {source}"
         )
+    _check_experiments(config, source)
     n_epochs = config["ar_training"]["duration_s"] / config["sampling"]["ts"]
     if n_epochs < 20 * max(max_order, config["ar_models"]["pacf_lags"]):
         raise ConfigError(
             f"invalid config value at 'ar_training.duration_s': {n_epochs:.0f} epochs are too few to fit "
             f"AR({max_order}) and a {config['ar_models']['pacf_lags']}-lag PACF; lengthen it in {source}"
         )
+
+
+def _check_experiments(config: Mapping[str, Any], source: str) -> None:
+    scenarios, trackers = config["scenarios"], config["trackers"]
+    for name, sc in scenarios.items():
+        starts = [seg["start_s"] for seg in sc["segments"]]
+        if starts and (starts[0] != 0 or any(b <= a for a, b in zip(starts, starts[1:]))):
+            raise ConfigError(f"invalid config value at 'scenarios.{name}.segments': start_s must begin at 0 and increase; fix it in {source}")
+        if sc["duration_s"] <= config["tracking"]["steady_state_start_s"]:
+            raise ConfigError(
+                f"invalid config value at 'scenarios.{name}.duration_s': {sc['duration_s']} s ends before "
+                f"tracking.steady_state_start_s={config['tracking']['steady_state_start_s']}; lengthen it in {source}"
+            )
+    for name, exp in config["experiments"].items():
+        for sc in exp["scenarios"]:
+            if sc not in scenarios:
+                raise ConfigError(f"invalid config value at 'experiments.{name}.scenarios': {sc!r} is not defined under 'scenarios'; add it in {source}")
+        for tr in exp["trackers"]:
+            if tr not in trackers:
+                raise ConfigError(f"invalid config value at 'experiments.{name}.trackers': {tr!r} is not defined under 'trackers'; add it in {source}")
+        if exp["shards"] > exp["trials"]:
+            raise ConfigError(f"invalid config value at 'experiments.{name}.shards': more shards ({exp['shards']}) than trials ({exp['trials']}); fix it in {source}")

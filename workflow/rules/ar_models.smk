@@ -10,6 +10,7 @@ rule ar_fit:
         "results/ar_models/fits/s4-{s4}.nc",
     params:
         ar=config["ar_models"],
+        code=CODE_AR,
     log:
         "logs/ar_models/fit_s4-{s4}.log",
     benchmark:
@@ -24,6 +25,8 @@ rule ar_lut:
         expand("results/ar_models/fits/s4-{s4}.nc", s4=TRAIN_S4),
     output:
         AR_LUT,
+    params:
+        code=CODE_AR,
     log:
         "logs/ar_models/ar_lut.log",
     benchmark:
@@ -43,6 +46,7 @@ rule ar_diagnostics:
         cases=config["figures"]["vila_valls_2018"]["ar_cases"],
         orders=config["figures"]["vila_valls_2018"]["psd_orders"],
         nperseg=config["figures"]["vila_valls_2018"]["welch_nperseg"],
+        code=CODE_AR,
     log:
         "logs/vila_valls_2018/ar_diagnostics.log",
     script:

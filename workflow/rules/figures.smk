@@ -1,31 +1,23 @@
 # Figure rules: read results, never simulate.  Each figure is a rule named
-# after it (``snakemake --cores 2 fig01``) and a report() output.
+# after it (``snakemake --cores 2 fig01``) and a report() output; the list of
+# figures, their inputs and arguments is VV_FIGURE_SPECS in common.smk.
 
-VV_PACF_LAGS = config["figures"]["vila_valls_2018"]["pacf_lags_shown"]
-
-
-def _vv_figure_rule(name, kwargs):
-    stem = VV_FIGURE_STEMS[name]
+for _name, (_inputs_, _kwargs, _subcat) in VV_FIGURE_SPECS.items():
 
     rule:
         name:
-            name
+            _name
         input:
-            diag=VV_DIAGNOSTICS,
+            **_inputs_,
         output:
-            pdf=report(f"{VV_FIG}/{stem}.pdf", caption=f"../report/{name}.rst", category="Vila-Valls 2018", subcategory="Sec. III: AR models"),
-            png=f"{VV_FIG}/{stem}.png",
+            pdf=report(f"{VV_FIG}/{VV_FIGURE_STEMS[_name]}.pdf", caption=f"../report/{_name}.rst", category="Vila-Valls 2018", subcategory=_subcat),
+            png=f"{VV_FIG}/{VV_FIGURE_STEMS[_name]}.png",
         params:
             module="scintrack.figures.vila_valls_2018",
-            function=name,
-            kwargs=kwargs,
+            function=_name,
+            kwargs=_kwargs,
+            code=CODE_FIGURES,
         log:
-            f"logs/figures/{name}.log",
+            f"logs/figures/{_name}.log",
         script:
             "../scripts/render_figure.py"
-
-
-_vv_figure_rule("fig01", {})
-_vv_figure_rule("fig02", {"lags_shown": VV_PACF_LAGS})
-_vv_figure_rule("fig03", {})
-_vv_figure_rule("fig04", {"lags_shown": VV_PACF_LAGS})

@@ -12,7 +12,31 @@ rule table01:
         twin_md=VV_TABLES[3],
         length_csv=report(VV_TABLES[4], caption="../report/table01.rst", category="Vila-Valls 2018", subcategory="Sec. III: AR models"),
         length_md=VV_TABLES[5],
+    params:
+        code=CODE_TABLES,
     log:
         "logs/tables/table01.log",
     script:
         "../scripts/table01.py"
+
+
+# Tables of Sec. VI: each function returns {stem: (frame, title, note)}; the
+# list is VV_TABLE_SPECS in common.smk.
+for _name, (_function, _tinputs) in VV_TABLE_SPECS.items():
+
+    rule:
+        name:
+            _name
+        input:
+            **_tinputs,
+        output:
+            **{f"{stem}_csv": report(f"{VV_TAB}/{stem}.csv", caption=f"../report/{_name}.rst", category="Vila-Valls 2018", subcategory="Sec. VI: tracking on CSM data") for stem in VV_TABLE_STEMS[_name]},
+            **{f"{stem}_md": f"{VV_TAB}/{stem}.md" for stem in VV_TABLE_STEMS[_name]},
+        params:
+            module="scintrack.tables.vila_valls_2018",
+            function=_function,
+            code=CODE_TABLES,
+        log:
+            f"logs/tables/{_name}.log",
+        script:
+            "../scripts/render_table.py"

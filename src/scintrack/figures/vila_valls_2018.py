@@ -83,3 +83,111 @@ def fig03(diag):
 
 def fig04(diag, lags_shown):
     return pacf_figure(diag, "phase", 4, lags_shown)
+
+
+# --- Sections VI-A..D, F: tracking on CSM data ------------------------------
+
+TRACKER_LABEL = {
+    "pll": "PLL", "kf": "KF", "akf": "AKF", "akf_ar": "AKF-AR", "akf_ar_none": "AKF-AR (no scint. model)",
+    "aekf_ar": "AEKF-AR", "aekf_ar_ssm1": "AEKF-AR (SSM #1)", "aekf_ar_fixed": "AEKF-AR (fixed AR)",
+    "aekf_ar13": "AEKF-AR13", "aekf_ar23": "AEKF-AR23", "aekf_ar33": "AEKF-AR33",
+}
+LOSS_OF_LOCK_RAD = 0.52  # 3 sigma = 90 deg rule of thumb quoted in Sec. VI-B
+
+
+def tracker_label(name: str, tex: bool = True) -> str:
+    if name.startswith("aekf_pred_"):
+        s4 = "S$_4$" if tex else "S4"
+        return f"AEKF-AR, AR fit at {s4} = {name.rsplit('_', 1)[1]}"
+    return TRACKER_LABEL.get(name, name)
+
+
+def _scenario_title(res: xr.Dataset) -> str:
+    s4 = res["s4_true"].values
+    tau0 = res["tau0_true"].values
+    if np.all(s4 == 0):
+        return "no scintillation"
+    change = np.flatnonzero(np.diff(s4)) + 1
+    parts = [f"$S_4$ = {s4[0]:g}, $\\tau_0$ = {tau0[0]:g} s"]
+    for k in change:
+        parts.append(f"$S_4$ = {s4[k]:g}, $\\tau_0$ = {tau0[k]:g} s from {res['time'].values[k]:g} s")
+    return " $\\to$ ".join(parts)
+
+
+SMOOTH_S = 0.5  # display only: mean squares averaged over 0.5 s before the root
+
+
+def _smooth(rmse: np.ndarray, n: int) -> np.ndarray:
+    from scipy.ndimage import uniform_filter1d
+
+    return np.sqrt(uniform_filter1d(rmse**2, size=max(n, 1), mode="nearest"))
+
+
+def rmse_panel(ax, res: xr.Dataset, trackers=None, kind: str = "wrapped", styles=None):
+    """RMSE of theta_d against time with its 95% band, log scale (0.5 s display smoothing)."""
+    t = res["time"].values
+    n = int(round(SMOOTH_S / (t[1] - t[0])))
+    for name in trackers or list(res["tracker"].values):
+        d = res.sel(tracker=name, kind=kind)
+        style = {"lw": 1.1, **(styles or {}).get(name, {})}
+        (line,) = ax.semilogy(t, _smooth(d["rmse"].values, n), label=tracker_label(str(name)), **style)
+        ax.fill_between(t, _smooth(d["rmse_lo"].values, n), _smooth(d["rmse_hi"].values, n), color=line.get_color(), alpha=0.2, lw=0)
+    ax.axhline(LOSS_OF_LOCK_RAD, color="k", ls=":", lw=0.8, label="0.52 rad (loss of lock)")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(f"RMSE of $\\theta_d$ [rad] ({kind}, 0.5 s mean)")
+    ax.set_title(_scenario_title(res), fontsize=9)
+    ax.legend(loc="upper right", ncol=2, fontsize=7)
+
+
+def _two_panels(top, bottom, fig_no, caption, **kw):
+    fig, axes = new_figure(2, 1, figsize=(6.4, 6.6))
+    rmse_panel(axes[0], top, **kw)
+    rmse_panel(axes[1], bottom, **kw)
+    fig.suptitle(f"Fig. {fig_no}: {caption}\n(synthetic CSM data, C/N$_0$ = 30 dB-Hz, {int(top['n_trials'])} trials, 95% bands)")
+    fig.tight_layout()
+    return fig
+
+
+def fig06(free, equivalence):
+    styles = {"aekf_ar13": {"ls": "-"}, "aekf_ar23": {"ls": "--"}, "aekf_ar33": {"ls": ":", "lw": 2}}
+    return _two_panels(free, equivalence, 6, "RMSE without scintillation (top) and SSM #2-#4 equivalence (bottom)", styles=styles)
+
+
+def fig07(severe, moderate):
+    return _two_panels(severe, moderate, 7, "RMSE, extreme (top) and moderate (bottom) scintillation")
+
+
+def fig08(mismatch):
+    fig, ax = new_figure(1, 1, figsize=(6.4, 3.6))
+    rmse_panel(ax, mismatch, trackers=[t for t in mismatch["tracker"].values if t != "aekf_pred_0.5" and t != "aekf_pred_0.4"])
+    fig.suptitle(f"Fig. 8: AEKF-AR with AR-model mismatch\n(synthetic CSM data, C/N$_0$ = 30 dB-Hz, {int(mismatch['n_trials'])} trials, 95% bands)")
+    fig.tight_layout()
+    return fig
+
+
+def fig09(severe_to_moderate, moderate_to_severe):
+    fig = _two_panels(severe_to_moderate, moderate_to_severe, 9, "time-varying scintillation")
+    for ax, res in zip(fig.axes, (severe_to_moderate, moderate_to_severe)):
+        s4 = res["s4_true"].values
+        for k in np.flatnonzero(np.diff(s4)) + 1:
+            ax.axvline(res["time"].values[k], color="0.4", lw=0.8, ls="--")
+    return fig
+
+
+def fig16(case1, case2, case3):
+    fig, axes = new_figure(3, 1, figsize=(6.4, 8.0))
+    for ax, res in zip(axes, (case1, case2, case3)):
+        t = res["time"].values
+        for name in res["tracker"].values:
+            ax.plot(t, res["example_error"].sel(tracker=name).values / (2 * np.pi), lw=0.8, label=tracker_label(str(name)))
+        ax.set_xlabel("time [s]")
+        if np.abs(res["example_error"].values).max() > 2 * 2 * np.pi:
+            ax.set_yscale("symlog", linthresh=2.0)
+            ax.set_ylabel("phase error [cycles] (symlog)")
+        else:
+            ax.set_ylabel("phase error [cycles]")
+        ax.set_title(f"{_scenario_title(res)}, trial {int(res['example_trial'])}")
+        ax.legend(loc="upper left", ncol=3, fontsize=7)
+    fig.suptitle("Fig. 16: phase error of one realisation (unwrapped, in cycles)\n(synthetic CSM data, C/N$_0$ = 30 dB-Hz)")
+    fig.tight_layout()
+    return fig

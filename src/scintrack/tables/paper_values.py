@@ -9,3 +9,37 @@ VILA_VALLS_2018_TABLE_I = {
     "moderate": {"s4_range": "0.3 < S4 <= 0.6", "amplitude": 3, "phase": 2},
     "low": {"s4_range": "S4 <= 0.3", "amplitude": 3, "phase": 3},
 }
+
+TRACKERS_5 = ("pll", "kf", "akf", "akf_ar", "aekf_ar")
+
+# Table III: steady-state RMSE [rad], rows (S4, tau0), columns PLL KF AKF AKF-AR AEKF-AR.
+VILA_VALLS_2018_TABLE_III = {
+    "s4_0.9_tau0_0.1": (1.1, 0.71, 0.61, 0.43, 0.12),
+    "s4_0.8_tau0_0.2": (0.83, 0.59, 0.52, 0.42, 0.10),
+    "s4_0.7_tau0_0.3": (0.63, 0.49, 0.48, 0.42, 0.10),
+    "s4_0.6_tau0_0.4": (0.47, 0.40, 0.39, 0.29, 0.08),
+    "s4_0.5_tau0_0.4": (0.36, 0.31, 0.30, 0.23, 0.07),
+    "s4_0.4_tau0_0.8": (0.26, 0.25, 0.25, 0.20, 0.07),
+}
+
+# Table IV: AEKF-AR steady-state RMSE [rad] with AR mismatch; rows = predicted
+# scintillation (the AR fit used), columns = true scintillation; None = "-".
+VILA_VALLS_2018_TABLE_IV = {
+    "aekf_pred_0.9": {"s4_0.8_tau0_0.2": 0.102, "s4_0.6_tau0_0.4": None},
+    "aekf_pred_0.8": {"s4_0.8_tau0_0.2": 0.10, "s4_0.6_tau0_0.4": 0.0802},
+    "aekf_pred_0.7": {"s4_0.8_tau0_0.2": 0.1512, "s4_0.6_tau0_0.4": 0.0832},
+    "aekf_pred_0.6": {"s4_0.8_tau0_0.2": 0.21, "s4_0.6_tau0_0.4": 0.078},
+    "aekf_pred_0.5": {"s4_0.8_tau0_0.2": None, "s4_0.6_tau0_0.4": 0.0828},
+    "aekf_pred_0.4": {"s4_0.8_tau0_0.2": None, "s4_0.6_tau0_0.4": 0.0829},
+}
+
+# Table VII: mean number of cycle slips over 500 runs of 500 s; the extracted
+# text of the table lost its row labels, the rows follow the paper's tracker
+# order everywhere else (PLL, KF, AKF, AKF-AR, AEKF-AR).
+VILA_VALLS_2018_TABLE_VII = {
+    "pll": {"slips_case1": 0.476, "slips_case2": 22.332, "slips_case3": 407.82},
+    "kf": {"slips_case1": 0.006, "slips_case2": 2.150, "slips_case3": 216.43},
+    "akf": {"slips_case1": 0.0, "slips_case2": 0.532, "slips_case3": 23.86},
+    "akf_ar": {"slips_case1": 0.0, "slips_case2": 0.0, "slips_case3": 0.01},
+    "aekf_ar": {"slips_case1": 0.0, "slips_case2": 0.0, "slips_case3": 0.0},
+}

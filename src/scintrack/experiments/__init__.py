@@ -1,0 +1,1 @@
+"""Scenarios, the Monte Carlo runner and the metrics of the tracking experiments."""

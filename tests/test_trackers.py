@@ -1,0 +1,199 @@
+"""Trackers: theory at high C/N0, SSM equivalence, slips, batch invariance, robustness."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+import xarray as xr
+from conftest import REPO
+from scipy.linalg import solve_discrete_are
+
+from scintrack.config import load_config
+from scintrack.experiments.metrics import count_cycle_slips, slip_counts, unwrapped_error, wrap
+from scintrack.experiments.runner import run_shard
+from scintrack.signals.correlator import complex_noise, noise_power, prompts
+from scintrack.signals.dynamics import third_order_phase
+from scintrack.trackers.aekf_ar import AEKFAR, ArSet
+from scintrack.trackers.base import TrackInit, atan2_discriminator, atan_variance, dynamics_F, dynamics_Q
+from scintrack.trackers.kf import DiscriminatorKF
+from scintrack.trackers.pll import PLL
+
+TS = 0.01
+
+
+@pytest.mark.parametrize("cn0_dbhz", [28.0, 30.0, 35.0])
+def test_eq12_variance_matches_monte_carlo_discriminator(cn0_dbhz):
+    s2 = noise_power(cn0_dbhz, TS)
+    y = 1.0 + complex_noise(0, "disc", range(1), 400_000, s2)[0]
+    mc = np.var(atan2_discriminator(y, np.zeros_like(y.real)))
+    assert abs(atan_variance(10 ** (cn0_dbhz / 10), TS) / mc - 1) < 0.08
+
+
+def _clean_run(tracker, cn0_dbhz=45.0, n=200, k=3000, seed=1):
+    thd = third_order_phase(np.zeros(n), k, TS, 50.0, 100.0)
+    y = prompts(thd, 1.0, complex_noise(seed, "clean", range(n), k, noise_power(cn0_dbhz, TS)))
+    init = TrackInit(phase=np.angle(y[:, 0]), doppler_hz=np.full(n, 50.0), rate_hz_s=np.full(n, 100.0))
+    e = unwrapped_error(tracker.run(y, init).theta_d, thd)
+    return e[:, k // 2 :]
+
+
+def _kf_steady_var(q, r):
+    F, Q, H = dynamics_F(TS), dynamics_Q(q, TS), np.array([[1.0, 0.0, 0.0]])
+    p_prior = solve_discrete_are(F.T, H.T, Q, np.array([[r]]))
+    k = p_prior @ H.T / (H @ p_prior @ H.T + r)
+    return float(((np.eye(3) - k @ H) @ p_prior)[0, 0])
+
+
+def test_pll_jitter_matches_loop_theory():
+    bn, cn0 = 5.0, 10 ** 4.5
+    e = _clean_run(PLL(ts=TS, bandwidth_hz=bn))
+    theory = bn / cn0 * (1 + 1 / (2 * cn0 * TS))
+    assert np.all(np.abs(e) < 1.0)
+    assert abs(np.var(e) / theory - 1) < 0.2, (np.var(e), theory)
+
+
+@pytest.mark.parametrize("adaptive", [False, True])
+def test_kf_and_akf_error_matches_riccati(adaptive):
+    cn0 = 10 ** 4.5
+    q = 1.0
+    kf = DiscriminatorKF(ts=TS, q_jerk=q, nominal_cn0_hz=cn0, p0_diag=(0.1, 1.0, 1.0), adaptive_r=adaptive, cn0_window=200)
+    e = _clean_run(kf)
+    theory = _kf_steady_var(q, float(atan_variance(cn0, TS)))
+    assert abs(np.var(e) / theory - 1) < 0.15, (np.var(e), theory)
+
+
+def test_aekf_without_scintillation_matches_riccati():
+    cn0 = 10 ** 4.5
+    q = 1.0
+    s2 = noise_power(45.0, TS)
+    ekf = AEKFAR(ts=TS, q_jerk=q, p0_diag=(0.1, 1.0, 1.0), ar_sets=[ArSet.no_scintillation()], nominal_noise=s2, rho_p0=1e-4)
+    e = _clean_run(ekf)
+    theory = _kf_steady_var(q, 1 / (2 * cn0 * TS))
+    assert abs(np.var(e) / theory - 1) < 0.15, (np.var(e), theory)
+
+
+def test_ssm_equivalence_ar13_equals_ar33_with_zero_betas():
+    rng = np.random.default_rng(4)
+    n, k = 20, 1500
+    thd = third_order_phase(rng.uniform(-np.pi, np.pi, n), k, TS, 50.0, 100.0)
+    ths = np.cumsum(rng.normal(0, 0.02, (n, k)), axis=1)
+    rho = 1 + 0.1 * np.sin(np.arange(k) / 30.0)
+    y = prompts(thd + ths, rho, complex_noise(5, "eq", range(n), k, noise_power(30.0, TS)))
+    init = TrackInit(phase=np.angle(y[:, 0]), doppler_hz=np.full(n, 50.0), rate_hz_s=np.zeros(n))
+    s = ArSet(beta=np.array([0.99]), gamma=np.array([1.8, -0.9, 0.05]), kappa=0.05, sigma2_theta=4e-4, sigma2_rho=1e-4, s4=0.8)
+    outs = [AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=[s], p_state=p, q_state=3, nominal_noise=0.1).run(y, init).theta_d for p in (1, 2, 3)]
+    assert np.max(np.abs(outs[0] - outs[1])) < 1e-8
+    assert np.max(np.abs(outs[0] - outs[2])) < 1e-8
+
+
+def test_cycle_slip_counter_counts_injected_slips_exactly():
+    rng = np.random.default_rng(0)
+    k = 5000
+    e = np.clip(rng.normal(0, 0.8, (3, k)), -3.5, 3.5)  # noise within pi + 0.5 of the cell centre
+    e[1, 1000:] += 2 * np.pi
+    e[1, 3000:] += 2 * np.pi
+    e[2, 2000:] -= 3 * 2 * np.pi  # a 3-cycle slip at once
+    assert list(count_cycle_slips(e, hysteresis=0.5)) == [0, 2, 3]
+    cycles, events = slip_counts(e, 0.5, settle=100)
+    assert list(events) == [0, 2, 1]
+
+
+def test_cycle_slip_counter_counts_a_runaway_loop_per_cycle():
+    e = np.linspace(0, 10 * 2 * np.pi, 10_000)[None, :]
+    assert count_cycle_slips(e, 0.5)[0] == 10
+    assert slip_counts(e, 0.5, settle=2000)[1][0] == 1  # one loss of lock
+
+
+def test_wrapped_error_range():
+    w = wrap(np.linspace(-20, 20, 1001))
+    assert w.min() >= -np.pi and w.max() <= np.pi
+
+
+@pytest.fixture(scope="module")
+def config():
+    return load_config([REPO / "config" / "config.yaml"])
+
+
+def _lut():
+    s4 = [0.4, 0.5, 0.8, 0.9, 1.0]
+    order = np.arange(1, 4)
+    coef = np.zeros((len(s4), 1, 2, 3, 3))
+    for i in range(len(s4)):
+        for o in order:
+            coef[i, 0, 0, o - 1, :3] = [1.8, -0.9, 0.05]  # amplitude
+            coef[i, 0, 1, o - 1, :o] = [0.99, 0.0, 0.0][:o]  # phase
+    return xr.Dataset(
+        {
+            "coef": (("s4", "tau0", "component", "order", "lag"), coef),
+            "const": (("s4", "tau0", "component", "order"), np.full((len(s4), 1, 2, 3), 0.05)),
+            "sigma2": (("s4", "tau0", "component", "order"), np.full((len(s4), 1, 2, 3), 1e-3)),
+        },
+        coords={"s4": s4, "tau0": [0.2], "component": ["amplitude", "phase"], "order": order, "lag": order},
+    )
+
+
+def _shard(config, trials, scenario, cn0=None, duration=3.0):
+    sc = copy.deepcopy(config["scenarios"][scenario])
+    sc["duration_s"] = duration
+    if cn0 is not None:
+        sc["cn0_dbhz"] = cn0
+    tracking = dict(config["tracking"], steady_state_start_s=1.0, adaptation_points=[[0.5, 0.2], [0.9, 0.2]])
+    return run_shard(
+        scenario_name=scenario, scenario=sc, tracker_names=["pll", "kf", "akf", "akf_ar", "aekf_ar"], tracker_specs=config["trackers"],
+        tracking=tracking, lut=_lut(), seed=7, ts=TS, nspa=8, warmup_s=1.0, trials=trials,
+    )
+
+
+def test_trial_result_is_independent_of_the_batch(config):
+    batch = _shard(config, range(500), "s4_0.8_tau0_0.2", duration=1.5)
+    alone = _shard(config, [123], "s4_0.8_tau0_0.2", duration=1.5)
+    np.testing.assert_allclose(batch["ms_steady"].sel(trial=123).values, alone["ms_steady"].sel(trial=123).values, rtol=1e-12, atol=1e-14)
+    np.testing.assert_array_equal(batch["slips"].sel(trial=123).values, alone["slips"].sel(trial=123).values)
+
+
+def test_no_tracker_returns_nan_at_10_dbhz_and_s4_1_2(config):
+    config = copy.deepcopy(config)
+    config["scenarios"]["harsh"] = {"duration_s": 3.0, "segments": [{"start_s": 0.0, "s4": 1.2, "tau0": 0.1}]}
+    res = _shard(config, range(20), "harsh", cn0=10.0)
+    assert np.all(np.isfinite(res["ms_steady"].values))
+    assert np.all(np.isfinite(res["sq_sum"].values))
+
+
+def test_compiled_kernels_match_numpy_references():
+    from scintrack.experiments.metrics import count_cycle_slips_numpy
+
+    rng = np.random.default_rng(9)
+    n, k = 6, 1200
+    thd = third_order_phase(rng.uniform(-np.pi, np.pi, n), k, TS, 50.0, 100.0)
+    ths = np.cumsum(rng.normal(0, 0.03, (n, k)), axis=1)
+    rho = np.abs(1 + 0.4 * np.sin(np.arange(k) / 25.0))
+    y = prompts(thd + ths, rho, complex_noise(5, "ref", range(n), k, noise_power(27.0, TS)))
+    init = TrackInit(phase=np.angle(y[:, 0]), doppler_hz=np.full(n, 50.0), rate_hz_s=np.zeros(n))
+    sets = [ArSet.no_scintillation(), ArSet(beta=np.array([1.9, -0.91]), gamma=np.array([1.8, -0.9, 0.05]), kappa=0.05, sigma2_theta=4e-4, sigma2_rho=1e-4, s4=0.5),
+            ArSet(beta=np.array([0.99]), gamma=np.array([1.8, -0.9, 0.05]), kappa=0.05, sigma2_theta=4e-4, sigma2_rho=1e-4, s4=0.9)]
+    trackers = [
+        PLL(ts=TS, bandwidth_hz=10.0),
+        DiscriminatorKF(ts=TS, q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4)),
+        DiscriminatorKF(ts=TS, q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4), adaptive_r=True, ar_coefs=np.array([0.99]), ar_sigma2=4e-4),
+        AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=sets, adaptive=True, nominal_noise=0.2, s4_window=300, s4_min_epochs=100, adapt_hold=50, record=("s4_hat", "ar_set")),
+    ]
+    for tr in trackers:
+        fast, ref = tr.run(y, init), tr.run_numpy(y, init)
+        np.testing.assert_allclose(fast.theta_d, ref.theta_d, atol=1e-7, err_msg=type(tr).__name__)
+        for key in fast.extras:
+            np.testing.assert_allclose(fast.extras[key], ref.extras[key], atol=1e-7)
+    e = unwrapped_error(trackers[0].run(y, init).theta_d, thd)
+    np.testing.assert_array_equal(count_cycle_slips(e), count_cycle_slips_numpy(e))
+
+
+def test_shards_merge_exactly(config):
+    from scintrack.experiments.runner import merge
+
+    whole = merge([_shard(config, range(4), "s4_0.8_tau0_0.2", duration=1.5)])
+    parts = merge([_shard(config, [2, 3], "s4_0.8_tau0_0.2", duration=1.5), _shard(config, [0, 1], "s4_0.8_tau0_0.2", duration=1.5)])
+    np.testing.assert_allclose(parts["sq_sum"].values, whole["sq_sum"].values, rtol=1e-12)
+    np.testing.assert_allclose(parts["steady_rmse"].values, whole["steady_rmse"].values, rtol=1e-12)
+    np.testing.assert_array_equal(parts["slips"].values, whole["slips"].values)
+    assert int(parts["example_trial"]) == 0
