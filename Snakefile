@@ -34,5 +34,9 @@ include: "workflow/rules/ar_models.smk"
 
 # Sec. VI-A..D and F: five trackers on CSM data (experiments -> figures/tables).
 include: "workflow/rules/experiments.smk"
+
+
+# Sec. VI-E: real multi-frequency traces (or their labelled surrogate).
+include: "workflow/rules/real_traces.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/tables.smk"

@@ -49,13 +49,17 @@ def test_results_carry_provenance_and_valid_content_hash(smoke_run):
 def test_manifest_lists_every_dataset_with_checksums(smoke_run):
     manifest = json.loads((smoke_run / "data" / "manifest.json").read_text())
     entries = manifest["datasets"]
-    assert len(entries) == 3
+    assert len(entries) == 6  # 3 CSM training sets + 3 surrogate events (no real traces configured)
     for e in entries:
         path = smoke_run / e["path"]
         assert e["sha256"] == sha256_file(path)
         assert re.fullmatch(r"v[0-9a-f]{12}", e["dataset_version"])
         assert path.stem == e["dataset_version"]
-        assert e["params"]["s4"] in (0.3, 0.5, 0.9)
+    csm = [e for e in entries if e["dataset_name"].startswith("csm_train")]
+    surrogate = [e for e in entries if e["dataset_name"].startswith("surrogate_")]
+    assert sorted(e["params"]["s4"] for e in csm) == [0.3, 0.5, 0.9]
+    assert sorted(e["params"]["event"] for e in surrogate) == ["event1", "event2", "event3"]
+    assert all(e["source"] == "surrogate" for e in surrogate)
 
 
 def test_table01_twin_has_every_region_and_the_paper_column(smoke_run):

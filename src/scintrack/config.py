@@ -98,6 +98,7 @@ def check_consistency(config: Mapping[str, Any], source: str = "config/config.ya
             f"ar_models.pacf_lags={config['ar_models']['pacf_lags']}; fix it in {source}"
         )
     _check_experiments(config, source)
+    _check_real_traces(config, source)
     n_epochs = config["ar_training"]["duration_s"] / config["sampling"]["ts"]
     if n_epochs < 20 * max(max_order, config["ar_models"]["pacf_lags"]):
         raise ConfigError(
@@ -126,3 +127,42 @@ def _check_experiments(config: Mapping[str, Any], source: str) -> None:
                 raise ConfigError(f"invalid config value at 'experiments.{name}.trackers': {tr!r} is not defined under 'trackers'; add it in {source}")
         if exp["shards"] > exp["trials"]:
             raise ConfigError(f"invalid config value at 'experiments.{name}.shards': more shards ({exp['shards']}) than trials ({exp['trials']}); fix it in {source}")
+
+
+def _check_real_traces(config: Mapping[str, Any], source: str) -> None:
+    rt = config["real_traces"]
+    where = "invalid config value at 'real_traces"
+    events, bands = rt["events"], rt["bands"]
+    if rt["sources"]:
+        missing = [e for e in events if e not in rt["sources"]]
+        extra = [e for e in rt["sources"] if e not in events]
+        if missing or extra:
+            raise ConfigError(
+                f"{where}.sources': real data must be given for every event or none (missing: {missing or '-'}, unknown: {extra or '-'}); fix it in {source}"
+            )
+    else:
+        missing = [e for e in events if e not in rt["surrogate"]["events"]]
+        if missing:
+            raise ConfigError(f"{where}.surrogate.events': no surrogate settings for {missing}; add them in {source}")
+        for name, ev in rt["surrogate"]["events"].items():
+            times = [pt[0] for pt in ev["profile"]]
+            if times[0] != 0 or any(b <= a for a, b in zip(times, times[1:])):
+                raise ConfigError(f"{where}.surrogate.events.{name}.profile': times must start at 0 and increase; fix it in {source}")
+    for key in ("trackers",):
+        for tr in rt[key]:
+            if tr not in config["trackers"]:
+                raise ConfigError(f"{where}.{key}': {tr!r} is not defined under 'trackers'; add it in {source}")
+    st = rt["static_tracker"]
+    if st not in config["trackers"] or config["trackers"][st]["type"] != "aekf_ar" or not config["trackers"][st].get("static"):
+        raise ConfigError(f"{where}.static_tracker': {st!r} must name an aekf_ar tracker with static: true under 'trackers'; fix it in {source}")
+    for fig, ev, band in [("fig10", rt["fig10"]["event"], None), ("fig11", rt["fig11"]["event"], rt["fig11"]["band"])] + [
+        ("fig15", e, b) for e, b in rt["fig15"]
+    ]:
+        if ev not in events or (band is not None and band not in bands):
+            raise ConfigError(f"{where}.{fig}': ({ev}, {band}) is not among real_traces.events/bands; fix it in {source}")
+    if rt["fig10"]["start_s"] + rt["fig10"]["length_s"] > rt["fit_s"] + rt["eval_s"]:
+        raise ConfigError(f"{where}.fig10': the window ends after the trace (fit_s + eval_s); fix it in {source}")
+    if rt["rmse_start_s"] >= rt["eval_s"]:
+        raise ConfigError(f"{where}.rmse_start_s': not before eval_s; fix it in {source}")
+    if max(rt["s4_window_s"], rt["pacf_segment_s"]) > rt["fit_s"] + rt["eval_s"]:
+        raise ConfigError(f"{where}.s4_window_s/pacf_segment_s': longer than the trace; fix it in {source}")

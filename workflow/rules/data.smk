@@ -20,6 +20,7 @@ rule dataset_manifest:
     """Name, version, source and checksums of every dataset of this run."""
     input:
         TRAINING_SETS,
+        list(TRACE_FILES.values()),
     output:
         DATASET_MANIFEST,
     log:

@@ -13,7 +13,7 @@ for _name, (_inputs_, _kwargs, _subcat) in VV_FIGURE_SPECS.items():
             pdf=report(f"{VV_FIG}/{VV_FIGURE_STEMS[_name]}.pdf", caption=f"../report/{_name}.rst", category="Vila-Valls 2018", subcategory=_subcat),
             png=f"{VV_FIG}/{VV_FIGURE_STEMS[_name]}.png",
         params:
-            module="scintrack.figures.vila_valls_2018",
+            module=VV_MODULE.get(_name, "scintrack.figures.vila_valls_2018"),
             function=_name,
             kwargs=_kwargs,
             code=CODE_FIGURES,

@@ -30,10 +30,10 @@ for _name, (_function, _tinputs) in VV_TABLE_SPECS.items():
         input:
             **_tinputs,
         output:
-            **{f"{stem}_csv": report(f"{VV_TAB}/{stem}.csv", caption=f"../report/{_name}.rst", category="Vila-Valls 2018", subcategory="Sec. VI: tracking on CSM data") for stem in VV_TABLE_STEMS[_name]},
-            **{f"{stem}_md": f"{VV_TAB}/{stem}.md" for stem in VV_TABLE_STEMS[_name]},
+            **{f"{stem}_csv": report(f"{VV_TAB}/{VV_TABLE_FILE[stem]}.csv", caption=f"../report/{_name}.rst", category="Vila-Valls 2018", subcategory=_RT if _name in ("table05", "table06", "table08", "tableS3") else "Sec. VI: tracking on CSM data") for stem in VV_TABLE_STEMS[_name]},
+            **{f"{stem}_md": f"{VV_TAB}/{VV_TABLE_FILE[stem]}.md" for stem in VV_TABLE_STEMS[_name]},
         params:
-            module="scintrack.tables.vila_valls_2018",
+            module=VV_MODULE.get(_name, "scintrack.tables.vila_valls_2018"),
             function=_function,
             code=CODE_TABLES,
         log:

@@ -42,8 +42,11 @@ def run_shard(
     nspa: int,
     warmup_s: float,
     trials: Sequence[int],
+    trace: tuple[np.ndarray, np.ndarray] | None = None,
+    trace_set=None,
 ) -> xr.Dataset:
-    real = simulate(scenario_name, scenario, tracking, seed=seed, ts=ts, nspa=nspa, warmup_s=warmup_s, trials=trials, lut=lut)
+    """One shard; ``trace``/``trace_set``: a recorded scintillation and its fitted AR models (Sec. VI-E)."""
+    real = simulate(scenario_name, scenario, tracking, seed=seed, ts=ts, nspa=nspa, warmup_s=warmup_s, trials=trials, lut=lut, trace=trace)
     init = acquisition(real, tracking)
     n_epochs = real.y.shape[1]
     steady = slice(int(round(float(tracking["steady_state_start_s"]) / ts)), None)
@@ -60,7 +63,7 @@ def run_shard(
     example = np.zeros((nt, n_epochs))
     s4_hat = np.full((nt, n_epochs), np.nan)
     for j, name in enumerate(tracker_names):
-        tracker = build(name, tracker_specs[name], scenario, tracking, lut, ts)
+        tracker = build(name, tracker_specs[name], scenario, tracking, lut, ts, trace_set)
         if hasattr(tracker, "record") and getattr(tracker, "adaptive", False):
             tracker.record = ("s4_hat",)
         out = tracker.run(real.y, init)

@@ -8,6 +8,9 @@ A scenario is a config entry::
 
 ``scintillation_model: ar`` draws the scintillation from the fitted AR models
 instead of the CSM (an isolating experiment: the AEKF-AR's model is exact).
+A recorded (real or surrogate) trace is passed to :func:`simulate` as
+``trace=(rho, theta)``; ``dynamics=False`` gives the static, dynamics-free
+case of Sec. VI-E2 (theta_d = 0).
 
 with the common ``tracking`` settings (C/N0, amplitude, f_d0, f_r, Ts).
 :func:`simulate` draws, for a list of trial indices, the initial phase, the
@@ -76,16 +79,30 @@ def ar_scintillation(seed: int, name: str, trials: np.ndarray, n_epochs: int, ar
     return theta, rho
 
 
-def simulate(name: str, scenario: Mapping[str, Any], tracking: Mapping[str, Any], *, seed: int, ts: float, nspa: int, warmup_s: float, trials: Sequence[int], lut=None) -> Realisation:
+def simulate(
+    name: str, scenario: Mapping[str, Any], tracking: Mapping[str, Any], *, seed: int, ts: float, nspa: int, warmup_s: float,
+    trials: Sequence[int], lut=None, trace: tuple[np.ndarray, np.ndarray] | None = None, dynamics: bool = True,
+) -> Realisation:
     n_epochs = int(round(float(scenario["duration_s"]) / ts))
     trials = np.asarray(list(trials))
     amp = float(tracking["amplitude"])
     cn0 = float(scenario.get("cn0_dbhz", tracking["cn0_dbhz"]))
-    theta0 = initial_phases(seed, f"scenario/{name}/theta0", trials)
-    theta_d = third_order_phase(theta0, n_epochs, ts, float(tracking["fd0_hz"]), float(tracking["fr_hz_s"]))
+    if dynamics:
+        theta0 = initial_phases(seed, f"scenario/{name}/theta0", trials)
+        theta_d = third_order_phase(theta0, n_epochs, ts, float(tracking["fd0_hz"]), float(tracking["fr_hz_s"]))
+    else:
+        theta_d = np.zeros((trials.size, n_epochs))
     segs = segments_of(scenario)
     warmup = int(round(warmup_s / ts))
-    if not segs:
+    if trace is not None:
+        rho_1, theta_1 = (np.asarray(v, dtype=float) for v in trace)
+        if rho_1.size < n_epochs:
+            raise ValueError(f"scenario {name!r}: the trace has {rho_1.size} samples, the scenario needs {n_epochs}")
+        rho = np.broadcast_to(rho_1[:n_epochs], (trials.size, n_epochs)).copy()
+        theta_s = np.broadcast_to(theta_1[:n_epochs] - theta_1[0], (trials.size, n_epochs)).copy()
+        s4_t = np.full(n_epochs, np.nan)
+        tau0_t = np.full(n_epochs, np.nan)
+    elif not segs:
         rho = np.ones((trials.size, n_epochs))
         theta_s = np.zeros((trials.size, n_epochs))
         s4_t = np.zeros(n_epochs)

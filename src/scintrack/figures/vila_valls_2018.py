@@ -91,6 +91,8 @@ TRACKER_LABEL = {
     "pll": "PLL", "kf": "KF", "akf": "AKF", "akf_ar": "AKF-AR", "akf_ar_none": "AKF-AR (no scint. model)",
     "aekf_ar": "AEKF-AR", "aekf_ar_ssm1": "AEKF-AR (SSM #1)", "aekf_ar_fixed": "AEKF-AR (fixed AR)",
     "aekf_ar13": "AEKF-AR13", "aekf_ar23": "AEKF-AR23", "aekf_ar33": "AEKF-AR33",
+    "akf_ar_trace": "AKF-AR", "aekf_ar_trace": "AEKF-AR", "aekf_ar_static": "AEKF-AR (static)",
+    "aekf_ar_fold": "AEKF-AR, mirror folded", "aekf_fixed_fold": "AEKF-AR (fixed AR), mirror folded",
 }
 LOSS_OF_LOCK_RAD = 0.52  # 3 sigma = 90 deg rule of thumb quoted in Sec. VI-B
 

@@ -43,3 +43,25 @@ VILA_VALLS_2018_TABLE_VII = {
     "akf_ar": {"slips_case1": 0.0, "slips_case2": 0.0, "slips_case3": 0.01},
     "aekf_ar": {"slips_case1": 0.0, "slips_case2": 0.0, "slips_case3": 0.0},
 }
+
+# Sec. VI-E (JRC Hanoi traces).  Table V: AEKF-AR amplitude (E rho_s, linear)
+# and phase (E theta_s, rad) RMSE over 600 s, per event and band.
+VILA_VALLS_2018_TABLE_V = {
+    "event1": {"L1": (0.0178, 0.0261), "L2": (0.0196, 0.0303), "L5": (0.0179, 0.0300)},
+    "event2": {"L1": (0.0174, 0.0202), "L2": (0.0200, 0.0241), "L5": (0.0176, 0.0188)},
+    "event3": {"L1": (0.0204, 0.0356), "L2": (0.0249, 0.0721), "L5": (0.0321, 0.1099)},
+}
+
+# Table VI: RMSE of theta_d [rad] over the processed sequence; tracker -> (L1, L2, L5).
+VILA_VALLS_2018_TABLE_VI = {
+    "event1": {"pll": (0.493, 0.568, 0.586), "kf": (0.588, 0.664, 0.680), "akf": (0.598, 0.685, 0.725), "akf_ar": (0.459, 0.503, 0.531), "aekf_ar": (0.162, 0.172, 0.188)},
+    "event2": {"pll": (0.12, 0.16, 0.17), "kf": (0.128, 0.18, 0.19), "akf": (0.126, 0.18, 0.189), "akf_ar": (0.105, 0.135, 0.157), "aekf_ar": (0.029, 0.037, 0.054)},
+    "event3": {"pll": (0.56, 0.626, 0.654), "kf": (0.666, 0.757, 0.78), "akf": (0.688, 0.771, 0.794), "akf_ar": (0.529, 0.554, 0.616), "aekf_ar": (0.195, 0.18, 0.344)},
+}
+
+# Table VIII: number of cycle slips per event and band; tracker order PLL KF AKF AKF-AR AEKF-AR.
+VILA_VALLS_2018_TABLE_VIII = {
+    ("event1", "L1"): (4, 0, 2, 0, 0), ("event1", "L2"): (4, 3, 3, 0, 0), ("event1", "L5"): (5, 2, 4, 0, 0),
+    ("event2", "L1"): (0, 0, 0, 0, 0), ("event2", "L2"): (2, 1, 0, 0, 0), ("event2", "L5"): (2, 0, 0, 0, 0),
+    ("event3", "L1"): (2, 0, 1, 0, 0), ("event3", "L2"): (3, 2, 2, 0, 0), ("event3", "L5"): (3, 3, 2, 0, 0),
+}

@@ -18,6 +18,15 @@ single-filter architecture).  A new set is adopted only after it has been the
 nearest one for ``adapt_hold`` consecutive epochs (a hold against switching
 back and forth on estimator noise; the paper gives no rule).  Non-adaptive use: a single parameter set.
 
+Not in the paper (an isolating option, off by default): ``fold_mirror``.
+The I/Q measurement is invariant under ``(rho_s, theta_s) -> (-rho_s,
+theta_s + pi)`` and nothing in eqs. (9)-(14) keeps ``rho_s > 0``; in deep
+fades the EKF crosses to that mirror solution, so its theta_s is off by pi
+(and its theta_d, after the dynamics absorb it, too).  With ``fold_mirror``
+a negative ``rho_s,k`` after the update is mapped back: every amplitude lag
+changes sign, every theta_s lag gains pi, and ``P -> J P J`` with ``J`` the
+matching sign matrix.  The I/Q prediction is unchanged by the fold.
+
 The measurement update exploits that H has non-zero entries only in the
 columns of theta_d, theta_s,k and rho_s,k: ``P H^T`` is two weighted column
 sums and the 2x2 innovation covariance is inverted in closed form.
@@ -76,6 +85,7 @@ class AEKFAR:
     adapt_hold: int = 200
     theta_s_p0: float = 0.01
     rho_p0: float = 0.05
+    fold_mirror: bool = False
     record: tuple[str, ...] = field(default_factory=tuple)
 
     def __post_init__(self):
@@ -126,6 +136,7 @@ class AEKFAR:
             np.array([s.s4 for s in self.ar_sets], dtype=float), bool(self.adaptive), int(self.initial_set),
             float(self.amplitude), float(self.nominal_noise), int(self.noise_window), int(self.s4_window),
             int(self.s4_min_epochs), int(self.adapt_hold), 3 + self.p_state, record, 1e-3, *nonzeros(F_tab),
+            bool(self.fold_mirror),
         )
         available = {"theta_s": th_s, "rho_s": rho, "s4_hat": s4_hat, "ar_set": sets}
         return TrackOutput(theta_d=out, extras={k: available[k] for k in self.record})
@@ -190,6 +201,13 @@ class AEKFAR:
             e1 = yi.imag - A * rho * s
             x = x + k0 * e0[:, None] + k1_ * e1[:, None]
             P = P - k0[:, :, None] * ph0[:, None, :] - k1_[:, :, None] * ph1[:, None, :]
+            if self.fold_mirror:
+                neg = x[:, ir] < 0.0
+                if neg.any():
+                    sign = np.where(np.arange(n) >= ir, -1.0, 1.0)
+                    x[neg, 3:ir] += np.pi
+                    x[neg] = x[neg] * sign
+                    P[neg] = P[neg] * sign[None, :, None] * sign[None, None, :]
             if i % 64 == 63:
                 P = 0.5 * (P + P.transpose(0, 2, 1))
             # --- adapt the SSM to the estimated S4 (Sec. V-B)

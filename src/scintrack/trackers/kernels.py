@@ -169,6 +169,7 @@ def kf_kernel(y, x0, P0, F, Q, H, adaptive, r_fixed, window, prior_signal, prior
 def aekf_kernel(
     y, x0, p0, F_tab, Q_tab, kap_tab, s4_points, adaptive, initial_set, A, nominal_noise,
     noise_window, s4_window, s4_min_epochs, adapt_hold, ir, record, floor_fraction, nz_rows, nz_cols, nz_vals, nz_count,
+    fold_mirror=False,
 ):
     n_tr, k = y.shape
     n = F_tab.shape[1]
@@ -259,6 +260,16 @@ def aekf_kernel(
                 x[a] += k0 * e0 + k1 * e1
                 for b in range(n):
                     P[a, b] -= k0 * ph0[b] + k1 * ph1[b]
+            if fold_mirror and x[ir] < 0.0:
+                # (rho, theta_s) -> (-rho, theta_s + pi): same I/Q prediction; P -> J P J
+                for a in range(3, ir):
+                    x[a] += math.pi
+                for a in range(ir, n):
+                    x[a] = -x[a]
+                    for b in range(n):
+                        if b < ir:
+                            P[a, b] = -P[a, b]
+                            P[b, a] = -P[b, a]
             if i % 64 == 63:
                 for a in range(n):
                     for b in range(a + 1, n):

@@ -1,0 +1,119 @@
+# Vila-Valls 2018, Sec. VI-E: multi-frequency scintillation traces.
+# Real JRC traces when real_traces.sources is set (fetched, checksum-verified,
+# validated), otherwise the synthetic phase-screen SURROGATE; the rest of the
+# chain is the same for both and every output says which it used.
+
+wildcard_constraints:
+    event=r"[A-Za-z0-9_-]+",
+
+
+if RT_SOURCE == "real":
+
+    rule fetch_trace:
+        """Obtain one real trace (URL or local path) and verify its sha256 against the registry."""
+        output:
+            ensure("data/raw/jrc_hanoi/{event}.{fmt}", non_empty=True, sha256=lambda wc: expected_sha256(RT["registry"], registry_name(wc.event))),
+        params:
+            source=lambda wc: RT["sources"][wc.event],
+            name=lambda wc: registry_name(wc.event),
+            registry=RT["registry"],
+            tofu=RT["trust_on_first_use"],
+        wildcard_constraints:
+            fmt=r"nc|mat|npz|csv",
+        log:
+            "logs/data/fetch_{event}_{fmt}.log",
+        script:
+            "../scripts/fetch_trace.py"
+
+    rule trace_dataset:
+        """Validate a real trace against docs/data.md and store it in the canonical format."""
+        input:
+            lambda wc: raw_trace_path(wc.event),
+        output:
+            "data/traces/real/{event}.nc",
+        params:
+            bands=RT["bands"],
+            code=CODE_TRACES,
+        log:
+            "logs/data/trace_{event}.log",
+        script:
+            "../scripts/trace_dataset.py"
+
+else:
+
+    rule surrogate_event:
+        """SYNTHETIC SURROGATE of one JRC event: multi-frequency phase screen."""
+        output:
+            ensure("data/synthetic/surrogate_{event}/{version}.nc", non_empty=True),
+        params:
+            dataset=lambda wc: surrogate_params(config, wc.event),
+            code=CODE_SURROGATE,
+        log:
+            "logs/data/surrogate_{event}_{version}.log",
+        benchmark:
+            "results/benchmarks/surrogate_event/{event}_{version}.tsv"
+        script:
+            "../scripts/make_surrogate.py"
+
+
+rule trace_ar_models:
+    """AR models fitted on the first real_traces.fit_s seconds of every band of one event."""
+    input:
+        lambda wc: TRACE_FILES[wc.event],
+    output:
+        f"{RT_RES}/ar_models/{{event}}.nc",
+    params:
+        code=CODE_TRACKING,
+    log:
+        f"logs/real_traces/{RT_SOURCE}/ar_models_{{event}}.log",
+    script:
+        "../scripts/trace_ar_models.py"
+
+
+rule trace_diagnostics:
+    """S4 over time of every event and band; PACF of severe/moderate/low segments (Figs. 12-14)."""
+    input:
+        **TRACE_FILES,
+    output:
+        RT_DIAG,
+    params:
+        code=CODE_TRACKING,
+    log:
+        f"logs/real_traces/{RT_SOURCE}/diagnostics.log",
+    script:
+        "../scripts/trace_diagnostics.py"
+
+
+rule trace_static:
+    """Dynamics-free scintillation tracking with the AEKF-AR (Fig. 11, Table V)."""
+    input:
+        trace=lambda wc: TRACE_FILES[wc.event],
+        models=f"{RT_RES}/ar_models/{{event}}.nc",
+    output:
+        f"{RT_RES}/static/{{event}}.nc",
+    params:
+        code=CODE_TRACKING,
+    log:
+        f"logs/real_traces/{RT_SOURCE}/static_{{event}}.log",
+    benchmark:
+        f"results/benchmarks/trace_static/{RT_SOURCE}_{{event}}.tsv"
+    script:
+        "../scripts/trace_experiment.py"
+
+
+rule trace_dynamics:
+    """Every tracker on the trace plus the aeronautical dynamics (Fig. 15, Tables VI, VIII)."""
+    input:
+        trace=lambda wc: TRACE_FILES[wc.event],
+        models=f"{RT_RES}/ar_models/{{event}}.nc",
+        lut=AR_LUT,
+    output:
+        f"{RT_RES}/dynamics/{{event}}.nc",
+    params:
+        code=CODE_TRACKING,
+    log:
+        f"logs/real_traces/{RT_SOURCE}/dynamics_{{event}}.log",
+    benchmark:
+        f"results/benchmarks/trace_dynamics/{RT_SOURCE}_{{event}}.tsv"
+    script:
+        "../scripts/trace_experiment.py"
