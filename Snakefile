@@ -25,6 +25,7 @@ rule all:
         DATASET_MANIFEST,
         VV_FIGURES,
         VV_TABLES,
+        COMPARE_PAGE,
 
 
 # Vila-Valls et al. 2018, Sec. III: CSM data and AR scintillation models.
@@ -38,5 +39,9 @@ include: "workflow/rules/experiments.smk"
 
 # Sec. VI-E: real multi-frequency traces (or their labelled surrogate).
 include: "workflow/rules/real_traces.smk"
+
+
+# Publication: paper-vs-reproduced page, checksummed bundle, verification.
+include: "workflow/rules/archive.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/tables.smk"

@@ -31,3 +31,11 @@ def smoke_run(tmp_path_factory) -> Path:
     proc = run_snakemake(workdir, "-q")
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     return workdir
+
+
+def run_targets(workdir: Path, *targets: str, overlays=(), timeout: float = 600) -> subprocess.CompletedProcess:
+    """Build ``targets`` (rule names or files; before --configfile, which takes every following word)."""
+    cmd = [SNAKEMAKE, *targets, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--cores", "2",
+           "--configfile", str(REPO / "config" / "smoke.yaml"), *map(str, overlays)]
+    env = dict(os.environ, PYTHONHASHSEED="0")
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)

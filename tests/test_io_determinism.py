@@ -54,3 +54,17 @@ def test_seed_streams_are_independent_and_reproducible():
     np.testing.assert_array_equal(a, rng_for(1, "name", 0).standard_normal(4))
     assert not np.allclose(a, rng_for(1, "name", 1).standard_normal(4))
     assert not np.allclose(a, rng_for(1, "other", 0).standard_normal(4))
+
+
+def test_dataset_version_follows_generator_code(tmp_path):
+    from scintrack.data.versioning import code_version, dataset_version
+
+    src = tmp_path / "gen.py"
+    src.write_text("def f():\n    return 1\n")
+    v1 = code_version("g", src)
+    assert code_version("g", src) == v1
+    src.write_text("def f():\n    return 2\n")
+    v2 = code_version("g", src)
+    assert v2 != v1 and v1.startswith("g-")
+    assert dataset_version("gen", v1, {"a": 1}) != dataset_version("gen", v2, {"a": 1})
+    assert dataset_version("gen", v1, {"a": 1}) != dataset_version("gen", v1, {"a": 2})

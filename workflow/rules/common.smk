@@ -65,6 +65,17 @@ if RT_SOURCE == "surrogate" and not globals().get("_RT_SAID"):
     _RT_SAID = True
 
 
+def repo_path(path):
+    """A path from the config: absolute, or relative to the working directory if it exists there, else to the repository."""
+    p = Path(path)
+    if p.is_absolute() or p.exists():
+        return str(p)
+    return str(Path(workflow.basedir) / p)
+
+
+REGISTRY = repo_path(RT["registry"])
+
+
 def registry_name(event):
     return f"jrc_hanoi_{event}"
 
@@ -221,3 +232,19 @@ VV_TABLE_SPECS = {
     "table08": ("table08", RT_DYNAMICS),
     "tableS3": ("table_s3", TRACE_FILES),
 }
+
+
+# --- publication bundle
+from scintrack import __version__ as SCINTRACK_VERSION
+from scintrack.archive.build import version_of
+from scintrack.io import git_state
+
+GIT = git_state(Path(workflow.basedir))
+ARCHIVE_VERSION = version_of(SCINTRACK_VERSION, GIT)
+ARCHIVE_FILE = f"archive/{config['archive']['name']}-{ARCHIVE_VERSION}.tar.gz"
+COMPARE_PAGE = ["tables/compare.md", "tables/compare.html"]
+VV_TWINS = [t for t in VV_TABLES if "_vs_paper" in t and t.endswith(".csv") and "table01_" not in t] + [f"{VV_TAB}/table01_ar_orders.csv"]
+ALL_RESULTS = sorted(
+    {AR_LUT, VV_DIAGNOSTICS, RT_DIAG, *RT_MODELS.values(), *RT_STATIC.values(), *RT_DYNAMICS.values()}
+    | {exp_result(e, s) for e, spec in config["experiments"].items() for s in spec["scenarios"]}
+)

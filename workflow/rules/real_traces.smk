@@ -12,11 +12,11 @@ if RT_SOURCE == "real":
     rule fetch_trace:
         """Obtain one real trace (URL or local path) and verify its sha256 against the registry."""
         output:
-            ensure("data/raw/jrc_hanoi/{event}.{fmt}", non_empty=True, sha256=lambda wc: expected_sha256(RT["registry"], registry_name(wc.event))),
+            ensure("data/raw/jrc_hanoi/{event}.{fmt}", non_empty=True, sha256=lambda wc: expected_sha256(REGISTRY, registry_name(wc.event))),
         params:
             source=lambda wc: RT["sources"][wc.event],
             name=lambda wc: registry_name(wc.event),
-            registry=RT["registry"],
+            registry=REGISTRY,
             tofu=RT["trust_on_first_use"],
         wildcard_constraints:
             fmt=r"nc|mat|npz|csv",

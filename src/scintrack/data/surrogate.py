@@ -28,9 +28,10 @@ import xarray as xr
 
 from ..seeding import rng_for
 from ..signals import phase_screen as ps
-from .versioning import dataset_version
+from .versioning import code_version, dataset_version
 
 GENERATOR = "scintrack.signals.phase_screen"
+GENERATOR_VERSION = code_version(ps.GENERATOR_VERSION, ps, __file__)
 MARGIN_S = 20.0  # generated and dropped at both ends (no wrap-around of the periodic screen)
 
 
@@ -56,7 +57,7 @@ def surrogate_params(config: Mapping[str, Any], event: str) -> dict[str, Any]:
 
 
 def surrogate_version(params: Mapping[str, Any]) -> str:
-    return dataset_version(GENERATOR, ps.GENERATOR_VERSION, params)
+    return dataset_version(GENERATOR, GENERATOR_VERSION, params)
 
 
 def surrogate_event(params: Mapping[str, Any]) -> xr.Dataset:
@@ -94,7 +95,7 @@ def surrogate_event(params: Mapping[str, Any]) -> xr.Dataset:
             "source": "surrogate",
             "title": f"SURROGATE scintillation event {params['event']} (phase screen; not JRC data)",
             "generator": GENERATOR,
-            "generator_version": ps.GENERATOR_VERSION,
+            "generator_version": GENERATOR_VERSION,
             "screen_strength_rad": strength,
             "spectral_index": index,
             "phase_detrending": f"zero-phase 6th-order Butterworth high-pass at {params['detrend_hz']:g} Hz",

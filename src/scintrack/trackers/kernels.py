@@ -37,6 +37,21 @@ def _m2m4_split(m2, m4, floor_fraction):
     return pd, m2 - pd
 
 
+@njit(cache=True)
+def _window_push(b1, b2, pos, s1, s2, count, v1, v2):
+    """Push (v1, v2) into two ring buffers with running sums; exact re-sum once per lap."""
+    s1 += v1 - b1[pos]
+    s2 += v2 - b2[pos]
+    b1[pos] = v1
+    b2[pos] = v2
+    pos = (pos + 1) % b1.size
+    count = min(count + 1, b1.size)
+    if pos == 0:
+        s1 = b1.sum()
+        s2 = b2.sum()
+    return pos, s1, s2, count
+
+
 def nonzeros(F: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Non-zero entries of a stack of transition matrices (S, n, n), padded.
 
@@ -131,15 +146,7 @@ def kf_kernel(y, x0, P0, F, Q, H, adaptive, r_fixed, window, prior_signal, prior
             nu = math.atan2(yi * c_ - yr * s_, yr * c_ + yi * s_)
             if adaptive:
                 p2 = yr * yr + yi * yi
-                s2 += p2 - buf2[pos]
-                s4 += p2 * p2 - buf4[pos]
-                buf2[pos] = p2
-                buf4[pos] = p2 * p2
-                pos = (pos + 1) % window
-                count = min(count + 1, window)
-                if pos == 0:
-                    s2 = buf2.sum()
-                    s4 = buf4.sum()
+                pos, s2, s4, count = _window_push(buf2, buf4, pos, s2, s4, count, p2, p2 * p2)
                 if count < min_epochs:
                     sig, noi = prior_signal, prior_noise
                 else:
@@ -221,15 +228,7 @@ def aekf_kernel(
             yr, yi = y[t, i].real, y[t, i].imag
             p2 = yr * yr + yi * yi
             # M2M4 noise power over the last noise_window epochs
-            ns2 += p2 - nb2[npos]
-            ns4 += p2 * p2 - nb4[npos]
-            nb2[npos] = p2
-            nb4[npos] = p2 * p2
-            npos = (npos + 1) % noise_window
-            ncount = min(ncount + 1, noise_window)
-            if npos == 0:
-                ns2 = nb2.sum()
-                ns4 = nb4.sum()
+            npos, ns2, ns4, ncount = _window_push(nb2, nb4, npos, ns2, ns4, ncount, p2, p2 * p2)
             if ncount < 10:
                 s2 = nominal_noise
             else:
@@ -277,15 +276,7 @@ def aekf_kernel(
                         P[a, b] = m
                         P[b, a] = m
             if adaptive:
-                ss1 += p2 - sb1[spos]
-                ss2 += p2 * p2 - sb2[spos]
-                sb1[spos] = p2
-                sb2[spos] = p2 * p2
-                spos = (spos + 1) % s4_window
-                scount = min(scount + 1, s4_window)
-                if spos == 0:
-                    ss1 = sb1.sum()
-                    ss2 = sb2.sum()
+                spos, ss1, ss2, scount = _window_push(sb1, sb2, spos, ss1, ss2, scount, p2, p2 * p2)
                 if scount >= s4_min_epochs:
                     mean = ss1 / scount
                     var = max(ss2 / scount - mean * mean, 0.0)

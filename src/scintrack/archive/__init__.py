@@ -1,0 +1,1 @@
+"""Publication bundle: deterministic archive, its metadata, verification and the paper comparison page."""

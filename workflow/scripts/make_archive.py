@@ -1,0 +1,31 @@
+"""Publication rule entry point: build the byte-reproducible bundle."""
+
+import sys
+from pathlib import Path
+
+import scintrack
+from scintrack import runlog
+from scintrack.archive.build import ArchiveRefused, check_tree, collect_members, finish
+from scintrack.archive.metadata import benchmark_timings
+from scintrack.archive.tarball import write_tarball
+from scintrack.io import git_state
+
+sm = snakemake  # noqa: F821
+log = runlog.setup(sm.log[0], "archive")
+cfg = sm.config
+git = git_state(Path(scintrack.__file__).resolve().parent)
+try:
+    check_tree(git, bool(cfg["archive"]["allow_dirty"]), [sm.input.figure_sums, sm.input.table_sums])
+except ArchiveRefused as exc:
+    log.error("%s", exc)
+    sys.exit(str(exc))
+outputs = [*sm.input.figures, *sm.input.tables, *sm.input.compare, sm.input.manifest, sm.input.figure_sums, sm.input.table_sums]
+extra = {"environment.lock": sm.input.lock, "registry/registry.yaml": sm.input.registry}
+members, manifest = collect_members(outputs=outputs, results=sm.input.results, extra=extra, max_result_mb=float(cfg["archive"]["max_result_mb"]))
+timings = benchmark_timings(sorted(Path("results/benchmarks").rglob("*.tsv")))
+members = finish(members, config=cfg, git=git, timings=timings, name=sm.params.name, version=sm.params.version)
+digest = write_tarball(members, sm.output[0], root=f"{sm.params.name}-{sm.params.version}")
+size = Path(sm.output[0]).stat().st_size
+msg = f"{sm.output[0]}: {len(members)} files, {size / 1e6:.1f} MB, sha256 {digest}; {len(manifest['listed_only'])} large results listed by hash only"
+log.info("%s", msg)
+print(msg, file=sys.stderr)
