@@ -148,10 +148,9 @@ def _check_real_traces(config: Mapping[str, Any], source: str) -> None:
             times = [pt[0] for pt in ev["profile"]]
             if times[0] != 0 or any(b <= a for a, b in zip(times, times[1:])):
                 raise ConfigError(f"{where}.surrogate.events.{name}.profile': times must start at 0 and increase; fix it in {source}")
-    for key in ("trackers",):
-        for tr in rt[key]:
-            if tr not in config["trackers"]:
-                raise ConfigError(f"{where}.{key}': {tr!r} is not defined under 'trackers'; add it in {source}")
+    for tr in rt["trackers"]:
+        if tr not in config["trackers"]:
+            raise ConfigError(f"{where}.trackers': {tr!r} is not defined under 'trackers'; add it in {source}")
     st = rt["static_tracker"]
     if st not in config["trackers"] or config["trackers"][st]["type"] != "aekf_ar" or not config["trackers"][st].get("static"):
         raise ConfigError(f"{where}.static_tracker': {st!r} must name an aekf_ar tracker with static: true under 'trackers'; fix it in {source}")

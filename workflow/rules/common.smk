@@ -60,9 +60,8 @@ CODE_TRACES = code_hash("data/traces.py")
 RT = config["real_traces"]
 RT_SOURCE = "real" if RT["sources"] else "surrogate"
 RT_SUFFIX = "" if RT_SOURCE == "real" else "_surrogate"
-if RT_SOURCE == "surrogate" and not globals().get("_RT_SAID"):
+if RT_SOURCE == "surrogate":
     print("real_traces: the JRC traces are not configured (real_traces.sources is empty); Sec. VI-E outputs use the synthetic SURROGATE and say so", file=sys.stderr)
-    _RT_SAID = True
 
 
 def repo_path(path):

@@ -17,6 +17,7 @@ from typing import Any
 import yaml
 
 from .. import __version__
+from .tarball import sha256_bytes
 
 TITLE = "scintrack: reproduction of GNSS carrier tracking under ionospheric scintillation and jamming"
 DESCRIPTION = (
@@ -58,7 +59,7 @@ def provenance(*, config: Mapping[str, Any], git: Mapping[str, Any], lock_text: 
         "git_dirty": bool(git.get("git_dirty")),
         "platform": {"python": platform.python_version(), "implementation": platform.python_implementation(), "machine": platform.machine(), "system": platform.system()},
         "config": config,
-        "environment_lock_sha256": __import__("hashlib").sha256(lock_text.encode()).hexdigest(),
+        "environment_lock_sha256": sha256_bytes(lock_text.encode()),
         "timings_per_job": timings,
     }
     return (json.dumps(doc, indent=2, sort_keys=True, default=str) + "\n").encode()
@@ -111,5 +112,5 @@ def ro_crate(members: Mapping[str, bytes], *, name: str, version: str, commit: s
          "result": [{"@id": f} for f in files if f.startswith(("figures/", "tables/", "results/"))]},
     ]
     for f in files:
-        graph.append({"@id": f, "@type": "File", "contentSize": len(members[f]), "sha256": __import__("hashlib").sha256(members[f]).hexdigest()})
+        graph.append({"@id": f, "@type": "File", "contentSize": len(members[f]), "sha256": sha256_bytes(members[f])})
     return (json.dumps({"@context": "https://w3id.org/ro/crate/1.1/context", "@graph": graph}, indent=1, sort_keys=True) + "\n").encode()

@@ -9,7 +9,7 @@ A scenario is a config entry::
 ``scintillation_model: ar`` draws the scintillation from the fitted AR models
 instead of the CSM (an isolating experiment: the AEKF-AR's model is exact).
 A recorded (real or surrogate) trace is passed to :func:`simulate` as
-``trace=(rho, theta)``; ``dynamics=False`` gives the static, dynamics-free
+``trace=(rho, theta)``, its phase already referenced by the caller; ``dynamics=False`` gives the static, dynamics-free
 case of Sec. VI-E2 (theta_d = 0).
 
 with the common ``tracking`` settings (C/N0, amplitude, f_d0, f_r, Ts).
@@ -99,7 +99,7 @@ def simulate(
         if rho_1.size < n_epochs:
             raise ValueError(f"scenario {name!r}: the trace has {rho_1.size} samples, the scenario needs {n_epochs}")
         rho = np.broadcast_to(rho_1[:n_epochs], (trials.size, n_epochs)).copy()
-        theta_s = np.broadcast_to(theta_1[:n_epochs] - theta_1[0], (trials.size, n_epochs)).copy()
+        theta_s = np.broadcast_to(theta_1[:n_epochs], (trials.size, n_epochs)).copy()
         s4_t = np.full(n_epochs, np.nan)
         tau0_t = np.full(n_epochs, np.nan)
     elif not segs:

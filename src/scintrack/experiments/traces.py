@@ -60,7 +60,7 @@ def fit_trace_models(ds: xr.Dataset, *, fit_s: float, ts: float) -> xr.Dataset:
     kappa, s2_th, s2_rho, s4_fit, p_order = (np.zeros(len(bands)) for _ in range(5))
     for j, band in enumerate(bands):
         rho, theta = segment(ds, band, 0.0, fit_s, ts)
-        s4_fit[j] = float(np.std(rho**2) / np.mean(rho**2))
+        s4_fit[j] = float(s4_batch(rho, 0.0))
         p = TABLE_I_PHASE_ORDER[region_of(max(s4_fit[j], 1e-6))]
         ph = fit_ar(theta, p, "n")
         am = fit_ar(rho, AMPLITUDE_ORDER, "c")
@@ -119,7 +119,7 @@ def trace_diagnostics(events: Mapping[str, xr.Dataset], *, ts: float, window_s: 
         rho = events[name]["amplitude"].sel(band=bands[0]).values.astype(float)
         for k in range(rho.size // seg):
             r = rho[k * seg : (k + 1) * seg]
-            cands.append((float(np.std(r**2) / np.mean(r**2)), e, k))
+            cands.append((float(s4_batch(r, 0.0)), e, k))
     cands.sort()
     picks = {"severe": cands[-1], "moderate": min(cands, key=lambda c: abs(c[0] - 0.45)), "low": cands[0]}
     pacf_v = np.zeros((3, 2, pacf_lags + 1))

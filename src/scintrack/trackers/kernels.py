@@ -265,10 +265,9 @@ def aekf_kernel(
                     x[a] += math.pi
                 for a in range(ir, n):
                     x[a] = -x[a]
-                    for b in range(n):
-                        if b < ir:
-                            P[a, b] = -P[a, b]
-                            P[b, a] = -P[b, a]
+                    for b in range(ir):
+                        P[a, b] = -P[a, b]
+                        P[b, a] = -P[b, a]
             if i % 64 == 63:
                 for a in range(n):
                     for b in range(a + 1, n):
