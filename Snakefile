@@ -2,18 +2,33 @@
 #
 #   snakemake --cores 2                 everything
 #   snakemake --cores 2 fig01           one figure (and only what it needs)
-#   snakemake --cores 2 --configfile config/smoke.yaml   tiny sizes, same DAG
+#   snakemake --cores 2 fig01 --configfile config/smoke.yaml   tiny sizes, same DAG
+#                                       (targets BEFORE --configfile: every word after it is read as a config file)
 #
 # Data flow (one way): config -> datasets -> AR models -> results -> figures/tables.
+# Every rule gets the config values its output depends on as params
+# (src/scintrack/pipeline/params.py), so an edited value reruns exactly the
+# jobs it affects.
 
 import os
+import sys
 
+from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version
 
 min_version("9.0")
 
+sys.path.insert(0, os.path.join(workflow.basedir, "src"))
+from scintrack.config import ConfigError, load_config
 
-configfile: os.path.join(workflow.basedir, "config", "config.yaml")
+_CONFIG_YAML = os.path.join(workflow.basedir, "config", "config.yaml")
+try:  # the project's loader names the file and line of a YAML error
+    load_config([_CONFIG_YAML])
+except ConfigError as _exc:
+    raise WorkflowError(str(_exc)) from None
+
+
+configfile: _CONFIG_YAML
 
 
 include: "workflow/rules/common.smk"
@@ -23,9 +38,11 @@ rule all:
     default_target: True
     input:
         DATASET_MANIFEST,
-        VV_FIGURES,
-        VV_TABLES,
+        FIGURE_FILES,
+        TABLE_FILES,
         COMPARE_PAGE,
+        FIGURE_SUMS,
+        TABLE_SUMS,
 
 
 # Vila-Valls et al. 2018, Sec. III: CSM data and AR scintillation models.
@@ -41,7 +58,8 @@ include: "workflow/rules/experiments.smk"
 include: "workflow/rules/real_traces.smk"
 
 
-# Publication: paper-vs-reproduced page, checksummed bundle, verification.
-include: "workflow/rules/archive.smk"
+# Figures and tables of every paper (declared next to their functions), the
+# paper-vs-reproduced page, the checksummed bundle and its verification.
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/tables.smk"
+include: "workflow/rules/archive.smk"

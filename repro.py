@@ -57,6 +57,22 @@ def ensure_env() -> None:
     STAMP.write_text(digest + "\n")
 
 
+def config_files(args: list[str]) -> list[str]:
+    """The files given to Snakemake's --configfile/--configfiles (every word after it, as Snakemake reads them)."""
+    files, taking = [], False
+    for arg in args:
+        if arg in ("--configfile", "--configfiles"):
+            taking = True
+        elif arg.startswith("--configfile=") or arg.startswith("--configfiles="):
+            files.append(arg.split("=", 1)[1])
+            taking = True
+        elif arg.startswith("-"):
+            taking = False
+        elif taking:
+            files.append(arg)
+    return files
+
+
 def main(argv: list[str]) -> int:
     if not argv or argv[0] not in {"run", "test", "env"}:
         print(__doc__, file=sys.stderr)
@@ -67,6 +83,11 @@ def main(argv: list[str]) -> int:
     if command == "env":
         return 0
     if command == "run":
+        files = config_files(rest)
+        if files:  # Snakemake's own YAML error does not name the file
+            check = subprocess.run([str(BIN / "python"), "-m", "scintrack", "check-config", *files], cwd=ROOT, env=env)
+            if check.returncode != 0:
+                return check.returncode
         cmd = [str(BIN / "snakemake"), "--cores", "2", *rest]
     else:
         cmd = [str(BIN / "python"), "-m", "pytest", *rest]

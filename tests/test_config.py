@@ -63,11 +63,35 @@ def test_missing_file_and_bad_yaml(tmp_path):
     with pytest.raises(ConfigError, match="not found"):
         load_config([tmp_path / "nope.yaml"])
     broken = tmp_path / "broken.yaml"
-    broken.write_text("a: [1, 2\n")
-    with pytest.raises(ConfigError, match="not valid YAML"):
+    broken.write_text("a: 1\nb: [1, 2\n")
+    with pytest.raises(ConfigError, match=r"broken.yaml:3:1 is not valid YAML"):
         load_config([broken])
 
 
+def test_check_config_cli_names_file_and_line_and_misplaced_targets(tmp_path, capsys):
+    from scintrack.__main__ import main
+
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("seed: 1\ntracking:\n  cn0_dbhz: [1,\n")
+    assert main(["check-config", str(broken)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "broken.yaml:4:1" in err
+    assert main(["check-config", str(REPO / "config" / "smoke.yaml"), "fig01"]) == 2
+    assert "put it before --configfile" in capsys.readouterr().err
+    assert main(["check-config", str(REPO / "config" / "smoke.yaml")]) == 0
+
+
+def test_command_line_overrides_get_yaml_types():
+    from scintrack.config import typed_overrides
+
+    # what Snakemake's --config parser hands over for tracking={"pll_bandwidth_hz": 15.0, ...}
+    raw = {"tracking": {"pll_bandwidth_hz": "15.0", "p0_diag": ["0.25", "1", "1e4"], "note": "scenario"}, "seed": 3}
+    typed = typed_overrides(raw)
+    assert typed == {"tracking": {"pll_bandwidth_hz": 15.0, "p0_diag": [0.25, 1, "1e4"], "note": "scenario"}, "seed": 3}
+    assert typed_overrides({"real_traces": "{sources: {}}"}) == {"real_traces": {"sources": {}}}
+
+
+@pytest.mark.pipeline
 def test_snakemake_stops_on_bad_value_with_one_line(tmp_path):
     overlay = tmp_path / "bad.yaml"
     overlay.write_text(yaml.safe_dump({"ar_training": {"s4": [-1, 0.5]}}))

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from scintrack.checksums import read_checksums, write_checksums
 from scintrack.figures import vila_valls_2018 as figs
-from scintrack.figures.common import read_checksums, save_figure, update_checksums
+from scintrack.figures.common import save_figure
 from scintrack.tables.vila_valls_2018 import table01_long, table01_twin
 
 
@@ -24,6 +25,7 @@ def _diag():
             "tau0": ("case", [0.1, 0.4]),
         },
         coords={"case": ["severe", "moderate"], "component": ["amplitude", "phase"], "order": [1, 2, 3, 4], "freq": freqs, "pacf_lag": np.arange(7)},
+        attrs={"ts": 0.01},
     )
 
 
@@ -43,18 +45,17 @@ def test_every_figure_function_renders(tmp_path):
         assert (tmp_path / "x.png").stat().st_size > 10_000
 
 
-def test_checksum_file_keeps_other_entries(tmp_path):
+def test_checksum_manifest_lists_files_relative_and_sorted(tmp_path):
     (tmp_path / "sub").mkdir()
-    a, b = tmp_path / "sub" / "a.txt", tmp_path / "sub" / "b.txt"
-    a.write_text("a")
-    b.write_text("b")
-    update_checksums(tmp_path, [a])
-    update_checksums(tmp_path, [b])
+    a, b = tmp_path / "sub" / "b.txt", tmp_path / "a.txt"
     a.write_text("A")
-    update_checksums(tmp_path, [a])
-    sums = read_checksums(tmp_path / "SHA256SUMS")
-    assert set(sums) == {"sub/a.txt", "sub/b.txt"}
-    assert sums["sub/a.txt"] == "559aead08264d5795d3909718cdd05abd49572e84fe55590eef31a88a08fdffd"  # sha256("A")
+    b.write_text("b")
+    manifest = write_checksums(tmp_path / "SHA256SUMS", [a, b])
+    text = manifest.read_text()
+    assert text.splitlines()[0].endswith("  a.txt") and text.splitlines()[1].endswith("  sub/b.txt")  # sorted by name
+    sums = read_checksums(manifest)
+    assert sums["sub/b.txt"] == "559aead08264d5795d3909718cdd05abd49572e84fe55590eef31a88a08fdffd"  # sha256("A")
+    assert write_checksums(tmp_path / "SHA256SUMS", [b, a]).read_text() == text  # order of inputs does not matter
 
 
 def _lut(orders):

@@ -6,10 +6,13 @@ import json
 import re
 
 import pandas as pd
+import pytest
 from conftest import REPO, SNAKEMAKE, run_snakemake
 
-from scintrack.figures.common import read_checksums
+from scintrack.checksums import read_checksums
 from scintrack.io import content_hash, open_dataset, sha256_file
+
+pytestmark = pytest.mark.pipeline
 
 FIGS = [
     "fig01_csm_amplitude_psd_ar", "fig02_csm_amplitude_pacf", "fig03_csm_phase_psd_ar", "fig04_csm_phase_pacf",

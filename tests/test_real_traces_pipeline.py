@@ -15,6 +15,8 @@ from conftest import REPO, SNAKEMAKE
 from scintrack.data.surrogate import surrogate_event, surrogate_params
 from scintrack.io import open_dataset
 
+pytestmark = pytest.mark.pipeline
+
 EVENTS = ("event1", "event2", "event3")
 
 

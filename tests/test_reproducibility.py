@@ -11,6 +11,8 @@ from conftest import REPO, run_snakemake, run_targets
 
 from scintrack.io import content_hash, open_dataset
 
+pytestmark = pytest.mark.pipeline
+
 ALLOW_DIRTY = REPO / "config" / "allow-dirty.yaml"
 
 

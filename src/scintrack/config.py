@@ -40,11 +40,40 @@ def load_config(paths: Iterable[str | Path]) -> dict[str, Any]:
         except FileNotFoundError:
             raise ConfigError(f"config file {path} not found; pass an existing --configfile") from None
         except yaml.YAMLError as exc:
-            raise ConfigError(f"config file {path} is not valid YAML ({str(exc).splitlines()[0]}); fix its syntax") from None
+            mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
+            where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark is not None else str(path)
+            problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+            raise ConfigError(f"config file {where} is not valid YAML ({problem}); fix its syntax there") from None
         if not isinstance(data, Mapping):
             raise ConfigError(f"config file {path} must hold a mapping at the top level")
         merged = deep_merge(merged, data)
     return merged
+
+
+def typed_overrides(overrides: Mapping[str, Any]) -> dict[str, Any]:
+    """``--config`` values with the types they would have in a YAML config file.
+
+    Snakemake parses ``--config key=VALUE`` with int/float/bool and then YAML's
+    *base* loader, which leaves every value inside a nested mapping a string
+    (``tracking={"pll_bandwidth_hz": 15.0}`` gives ``'15.0'``).  Each string
+    leaf is read again with ``yaml.safe_load`` (a value that does not parse
+    stays the string it was).
+    """
+
+    def convert(value: Any) -> Any:
+        if isinstance(value, Mapping):
+            return {k: convert(v) for k, v in value.items()}
+        if isinstance(value, list):
+            return [convert(v) for v in value]
+        if isinstance(value, str):
+            try:
+                parsed = yaml.safe_load(value)
+            except yaml.YAMLError:
+                return value
+            return convert(parsed) if isinstance(parsed, (Mapping, list)) else parsed
+        return value
+
+    return {key: convert(value) for key, value in dict(overrides).items()}
 
 
 def _key_path(error) -> str:

@@ -7,7 +7,8 @@
   every variable and coordinate), not the file bytes, which depend on the
   netCDF/HDF5 library versions.  Attributes are excluded, so provenance that
   changes from run to run (git commit, paths) does not alter it.
-* :func:`provenance` gives the attributes every result carries.
+* :func:`provenance` gives the attributes every result carries; its
+  ``config_sha256`` covers the config values the result depends on.
 """
 
 from __future__ import annotations
@@ -102,7 +103,13 @@ def provenance(
     inputs: Iterable[str | os.PathLike] = (),
     extra: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Attributes that travel with every dataset and result (NetCDF-safe types)."""
+    """Attributes that travel with every dataset and result (NetCDF-safe types).
+
+    ``config`` is the set of config values the result depends on (its rule's
+    params, :mod:`scintrack.pipeline.params`), never the whole config: its
+    hash ``config_sha256`` is what ``archive``/``verify`` recompute from a
+    config to check that the result belongs to it.
+    """
     state = git_state(Path(__file__).resolve().parent)
     attrs: dict[str, Any] = {
         "scintrack_version": __version__,

@@ -9,8 +9,8 @@ rule ar_fit:
     output:
         "results/ar_models/fits/s4-{s4}.nc",
     params:
-        ar=config["ar_models"],
-        code=CODE_AR,
+        fit=lambda wc: P.ar_fit(config, wc.s4),
+        code=code("fit_ar.py"),
     log:
         "logs/ar_models/fit_s4-{s4}.log",
     benchmark:
@@ -22,11 +22,12 @@ rule ar_fit:
 rule ar_lut:
     """AR look-up table (S4 x tau0 x component) read by the trackers."""
     input:
-        expand("results/ar_models/fits/s4-{s4}.nc", s4=TRAIN_S4),
+        [paths.ar_fit_path(s4) for s4 in TRAIN_S4],
     output:
         AR_LUT,
     params:
-        code=CODE_AR,
+        lut=P.ar_lut(config),
+        code=code("merge_lut.py"),
     log:
         "logs/ar_models/ar_lut.log",
     benchmark:
@@ -38,15 +39,13 @@ rule ar_lut:
 rule ar_diagnostics:
     """Welch PSD, AR(1..4) model PSDs and PACF of the Figs. 1-4 cases."""
     input:
-        fits=sorted({f"results/ar_models/fits/s4-{fmt(c['s4'])}.nc" for c in config["figures"]["vila_valls_2018"]["ar_cases"].values()}),
+        fits=sorted({paths.ar_fit_path(c["s4"]) for c in config["figures"]["vila_valls_2018"]["ar_cases"].values()}),
         train=sorted({training_path(c["s4"]) for c in config["figures"]["vila_valls_2018"]["ar_cases"].values()}),
     output:
         VV_DIAGNOSTICS,
     params:
-        cases=config["figures"]["vila_valls_2018"]["ar_cases"],
-        orders=config["figures"]["vila_valls_2018"]["psd_orders"],
-        nperseg=config["figures"]["vila_valls_2018"]["welch_nperseg"],
-        code=CODE_AR,
+        diag=P.ar_diagnostics(config),
+        code=code("ar_diagnostics.py"),
     log:
         "logs/vila_valls_2018/ar_diagnostics.log",
     script:

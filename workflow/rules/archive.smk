@@ -5,12 +5,12 @@
 rule compare:
     """Every reproduced table cell beside the paper's value, with a summary line."""
     input:
-        VV_TWINS,
+        TWINS,
     output:
         md=COMPARE_PAGE[0],
         html=report(COMPARE_PAGE[1], caption="../report/compare.rst", category="Summary"),
     params:
-        code=code_hash("archive"),
+        code=code("compare.py"),
     log:
         "logs/archive/compare.log",
     script:
@@ -18,23 +18,29 @@ rule compare:
 
 
 rule archive:
-    """archive/<name>-<version>.tar.gz: figures, tables, results, metadata, SHA256SUMS."""
+    """archive/<name>-<version>.tar.gz: figures, tables, results, metadata, SHA256SUMS.
+
+    Refuses (one line, naming the result) when a result was not computed
+    with the config being archived (its config hash differs)."""
     input:
-        figures=VV_FIGURES,
-        tables=VV_TABLES,
+        figures=FIGURE_FILES,
+        tables=TABLE_FILES,
         compare=COMPARE_PAGE,
         manifest=DATASET_MANIFEST,
         results=ALL_RESULTS,
         lock=repo_path("environment.lock"),
         registry=REGISTRY,
-        figure_sums="figures/SHA256SUMS",
-        table_sums="tables/SHA256SUMS",
+        figure_sums=FIGURE_SUMS,
+        table_sums=TABLE_SUMS,
     output:
         ARCHIVE_FILE,
     params:
         name=config["archive"]["name"],
         version=ARCHIVE_VERSION,
-        code=code_hash("archive"),
+        allow_dirty=config["archive"]["allow_dirty"],
+        max_result_mb=config["archive"]["max_result_mb"],
+        config=dict(config),
+        code=code("make_archive.py"),
     log:
         "logs/archive/archive.log",
     script:
@@ -42,12 +48,15 @@ rule archive:
 
 
 rule verify:
-    """Re-check every checksum of the bundle and the regenerated results' content hashes."""
+    """Re-check every checksum of the bundle, the results' config hashes against
+    the archived config, and the regenerated results' content hashes."""
     input:
         ARCHIVE_FILE,
         ALL_RESULTS,
     output:
         ARCHIVE_FILE.replace(".tar.gz", ".verify.txt"),
+    params:
+        code=code("verify_archive.py"),
     log:
         "logs/archive/verify.log",
     script:

@@ -7,7 +7,8 @@ rule csm_training_set:
     output:
         ensure("data/synthetic/csm_train_s4-{s4}/{version}.nc", non_empty=True),
     params:
-        dataset=lambda wc: csm_training_params(config, float(wc.s4)),
+        dataset=lambda wc: P.training(config, wc.s4),
+        code=code("make_csm_training.py"),
     log:
         "logs/data/csm_train_s4-{s4}_{version}.log",
     benchmark:
@@ -23,6 +24,8 @@ rule dataset_manifest:
         list(TRACE_FILES.values()),
     output:
         DATASET_MANIFEST,
+    params:
+        code=code("dataset_manifest.py"),
     log:
         "logs/data/dataset_manifest.log",
     script:

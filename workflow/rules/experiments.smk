@@ -1,10 +1,19 @@
 # Experiment rules (Vila-Valls 2018, Sec. VI-A..D, F): each (experiment,
-# scenario) runs as shards of trials, merged exactly into one NetCDF.
+# scenario) runs as shards of trials, merged exactly into one NetCDF.  Both
+# rules get every value the result depends on (scenario, tracker specs, the
+# tracking settings those trackers read, seed, sampling, trials) as params.
 
 
 wildcard_constraints:
     experiment=r"[^/]+",
     scenario=r"[^/]+",
+
+
+def _experiment_params(wc):
+    try:
+        return P.experiment(config, wc.experiment, wc.scenario)
+    except KeyError as exc:
+        raise WorkflowError(str(exc).strip("'\"")) from None
 
 
 rule tracking_shard:
@@ -14,9 +23,8 @@ rule tracking_shard:
     output:
         temp("results/experiments/{experiment}/{scenario}/shard-{shard}.nc"),
     params:
-        trials=lambda wc: shard_trials(wc.experiment, int(wc.shard)),
-        trackers=lambda wc: config["experiments"][wc.experiment]["trackers"],
-        code=CODE_TRACKING,
+        run=lambda wc: {**_experiment_params(wc), "trials": P.shard_trials(config, wc.experiment, int(wc.shard))},
+        code=code("run_tracking_shard.py"),
     wildcard_constraints:
         shard=r"\d+",
     log:
@@ -37,6 +45,9 @@ rule tracking_merge:
         ),
     output:
         "results/experiments/{experiment}/{scenario}.nc",
+    params:
+        run=_experiment_params,
+        code=code("merge_tracking.py"),
     log:
         "logs/experiments/{experiment}/{scenario}/merge.log",
     script:

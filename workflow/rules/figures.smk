@@ -1,23 +1,39 @@
 # Figure rules: read results, never simulate.  Each figure is a rule named
-# after it (``snakemake --cores 2 fig01``) and a report() output; the list of
-# figures, their inputs and arguments is VV_FIGURE_SPECS in common.smk.
+# after it (``snakemake --cores 2 fig01``) and a report() output.  The list of
+# figures, their inputs and arguments is declared on the figure functions
+# themselves (decorators in src/scintrack/figures/*.py, see
+# src/scintrack/products.py); a rule owns the checksum manifest.
 
-for _name, (_inputs_, _kwargs, _subcat) in VV_FIGURE_SPECS.items():
+for _name, _product in FIGURES.items():
+    _out = _product.outputs(config)
 
     rule:
         name:
             _name
         input:
-            **_inputs_,
+            **_product.inputs(config),
         output:
-            pdf=report(f"{VV_FIG}/{VV_FIGURE_STEMS[_name]}.pdf", caption=f"../report/{_name}.rst", category="Vila-Valls 2018", subcategory=_subcat),
-            png=f"{VV_FIG}/{VV_FIGURE_STEMS[_name]}.png",
+            pdf=report(_out["pdf"], caption=f"../report/{_name}.rst", category="Vila-Valls 2018", subcategory=report_section(_product)),
+            png=_out["png"],
         params:
-            module=VV_MODULE.get(_name, "scintrack.figures.vila_valls_2018"),
-            function=_name,
-            kwargs=_kwargs,
-            code=CODE_FIGURES,
+            product=_name,
+            kwargs=_product.kwargs(config),
+            code=code("render_figure.py", _product.module),
         log:
             f"logs/figures/{_name}.log",
         script:
             "../scripts/render_figure.py"
+
+
+rule figure_checksums:
+    """figures/SHA256SUMS: sha256sum-format list of every figure file."""
+    input:
+        FIGURE_FILES,
+    output:
+        FIGURE_SUMS,
+    params:
+        code=code("checksums.py"),
+    log:
+        "logs/figures/checksums.log",
+    script:
+        "../scripts/checksums.py"

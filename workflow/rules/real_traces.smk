@@ -18,6 +18,7 @@ if RT_SOURCE == "real":
             name=lambda wc: registry_name(wc.event),
             registry=REGISTRY,
             tofu=RT["trust_on_first_use"],
+            code=code("fetch_trace.py"),
         wildcard_constraints:
             fmt=r"nc|mat|npz|csv",
         log:
@@ -32,8 +33,8 @@ if RT_SOURCE == "real":
         output:
             "data/traces/real/{event}.nc",
         params:
-            bands=RT["bands"],
-            code=CODE_TRACES,
+            trace=lambda wc: P.trace_input(config, wc.event),
+            code=code("trace_dataset.py"),
         log:
             "logs/data/trace_{event}.log",
         script:
@@ -46,8 +47,8 @@ else:
         output:
             ensure("data/synthetic/surrogate_{event}/{version}.nc", non_empty=True),
         params:
-            dataset=lambda wc: surrogate_params(config, wc.event),
-            code=CODE_SURROGATE,
+            dataset=lambda wc: P.trace_input(config, wc.event)["surrogate"],
+            code=code("make_surrogate.py"),
         log:
             "logs/data/surrogate_{event}_{version}.log",
         benchmark:
@@ -63,7 +64,8 @@ rule trace_ar_models:
     output:
         f"{RT_RES}/ar_models/{{event}}.nc",
     params:
-        code=CODE_TRACKING,
+        run=lambda wc: P.trace_models(config, wc.event),
+        code=code("trace_ar_models.py"),
     log:
         f"logs/real_traces/{RT_SOURCE}/ar_models_{{event}}.log",
     script:
@@ -77,7 +79,8 @@ rule trace_diagnostics:
     output:
         RT_DIAG,
     params:
-        code=CODE_TRACKING,
+        run=P.trace_diagnostics(config),
+        code=code("trace_diagnostics.py"),
     log:
         f"logs/real_traces/{RT_SOURCE}/diagnostics.log",
     script:
@@ -92,7 +95,8 @@ rule trace_static:
     output:
         f"{RT_RES}/static/{{event}}.nc",
     params:
-        code=CODE_TRACKING,
+        run=lambda wc: P.trace_static(config, wc.event),
+        code=code("trace_experiment.py"),
     log:
         f"logs/real_traces/{RT_SOURCE}/static_{{event}}.log",
     benchmark:
@@ -110,7 +114,8 @@ rule trace_dynamics:
     output:
         f"{RT_RES}/dynamics/{{event}}.nc",
     params:
-        code=CODE_TRACKING,
+        run=lambda wc: P.trace_dynamics(config, wc.event),
+        code=code("trace_experiment.py"),
     log:
         f"logs/real_traces/{RT_SOURCE}/dynamics_{{event}}.log",
     benchmark:

@@ -1,42 +1,37 @@
-# Table rules: read results, write CSV + Markdown and a paper-vs-reproduced twin.
+# Table rules: read results, write CSV + Markdown and a paper-vs-reproduced
+# twin.  The list of tables, their inputs and output stems is declared on the
+# table functions themselves (decorators in src/scintrack/tables/*.py, see
+# src/scintrack/products.py); a rule owns the checksum manifest.
 
-
-rule table01:
-    """Table I: AR model orders per scintillation region, beside the paper's."""
-    input:
-        lut=AR_LUT,
-    output:
-        csv=report(VV_TABLES[0], caption="../report/table01.rst", category="Vila-Valls 2018", subcategory="Sec. III: AR models"),
-        md=VV_TABLES[1],
-        twin_csv=report(VV_TABLES[2], caption="../report/table01.rst", category="Vila-Valls 2018", subcategory="Sec. III: AR models"),
-        twin_md=VV_TABLES[3],
-        length_csv=report(VV_TABLES[4], caption="../report/table01.rst", category="Vila-Valls 2018", subcategory="Sec. III: AR models"),
-        length_md=VV_TABLES[5],
-    params:
-        code=CODE_TABLES,
-    log:
-        "logs/tables/table01.log",
-    script:
-        "../scripts/table01.py"
-
-
-# Tables of Sec. VI: each function returns {stem: (frame, title, note)}; the
-# list is VV_TABLE_SPECS in common.smk.
-for _name, (_function, _tinputs) in VV_TABLE_SPECS.items():
+for _name, _product in TABLES.items():
 
     rule:
         name:
             _name
         input:
-            **_tinputs,
+            **_product.inputs(config),
         output:
-            **{f"{stem}_csv": report(f"{VV_TAB}/{VV_TABLE_FILE[stem]}.csv", caption=f"../report/{_name}.rst", category="Vila-Valls 2018", subcategory=_RT if _name in ("table05", "table06", "table08", "tableS3") else "Sec. VI: tracking on CSM data") for stem in VV_TABLE_STEMS[_name]},
-            **{f"{stem}_md": f"{VV_TAB}/{VV_TABLE_FILE[stem]}.md" for stem in VV_TABLE_STEMS[_name]},
+            **{k: (report(v, caption=f"../report/{_name}.rst", category="Vila-Valls 2018", subcategory=report_section(_product)) if k.endswith("_csv") else v)
+               for k, v in _product.outputs(config).items()},
         params:
-            module=VV_MODULE.get(_name, "scintrack.tables.vila_valls_2018"),
-            function=_function,
-            code=CODE_TABLES,
+            product=_name,
+            code=code("render_table.py", _product.module),
         log:
             f"logs/tables/{_name}.log",
         script:
             "../scripts/render_table.py"
+
+
+rule table_checksums:
+    """tables/SHA256SUMS: sha256sum-format list of every table file and the comparison page."""
+    input:
+        TABLE_FILES,
+        COMPARE_PAGE,
+    output:
+        TABLE_SUMS,
+    params:
+        code=code("checksums.py"),
+    log:
+        "logs/tables/checksums.log",
+    script:
+        "../scripts/checksums.py"

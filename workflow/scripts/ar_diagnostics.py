@@ -12,14 +12,16 @@ log = runlog.setup(sm.log[0], "ar_diagnostics")
 fits = xr.concat([open_dataset(p) for p in sm.input.fits], dim="s4")
 trains = {float(ds["s4"]): ds for ds in map(open_dataset, sm.input.train)}
 parts = []
-for case, point in sm.params.cases.items():
+run = sm.params.diag
+for case, point in run["cases"].items():
     parts.append(
         ar_diagnostics(
             trains[float(point["s4"])], fits, s4=point["s4"], tau0=point["tau0"], trial=0,
-            orders=sm.params.orders, nperseg=sm.params.nperseg, case=case,
+            orders=run["orders"], nperseg=run["nperseg"], case=case,
         )
     )
 diag = xr.concat(parts, dim="case")
-diag.attrs.update(provenance(config=sm.config, inputs=list(sm.input)))
+diag.attrs.update(provenance(config=run, inputs=list(sm.input)))
+diag.attrs["ts"] = float(next(iter(trains.values())).attrs["ts"])
 diag.attrs["title"] = "AR model diagnostics of CSM amplitude and phase (trial 0)"
 write_netcdf(diag, sm.output[0])

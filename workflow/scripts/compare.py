@@ -1,10 +1,7 @@
 """Publication rule entry point: the paper-vs-reproduced page."""
 
-from pathlib import Path
-
 from scintrack import runlog
 from scintrack.archive.compare import collect, render, summary
-from scintrack.figures.common import update_checksums
 from scintrack.io import write_text
 
 sm = snakemake  # noqa: F821
@@ -13,5 +10,4 @@ df = collect(sm.input)
 md, page = render(df)
 write_text(md, sm.output.md)
 write_text(page, sm.output.html)
-update_checksums(Path(sm.output.md).parent, [sm.output.md, sm.output.html])
 log.info("%s", summary(df))

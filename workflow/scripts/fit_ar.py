@@ -6,10 +6,10 @@ from scintrack.models.lut import fit_training_set
 
 sm = snakemake  # noqa: F821
 log = runlog.setup(sm.log[0], "ar_fit")
-ar = sm.params.ar
+ar = sm.params.fit["ar_models"]
 train = open_dataset(sm.input[0])
 fits = fit_training_set(train, ar["max_order"], ar["pacf_lags"], ar["pacf_alpha"], ar["pacf_lengths_s"])
-fits.attrs.update(provenance(config=sm.config, inputs=sm.input))
+fits.attrs.update(provenance(config=sm.params.fit, inputs=sm.input))
 fits.attrs["ts"] = train.attrs["ts"]
 write_netcdf(fits, sm.output[0])
 log.info("fitted %s", sm.input[0])

@@ -5,23 +5,24 @@ from pathlib import Path
 
 import scintrack
 from scintrack import runlog
-from scintrack.archive.build import ArchiveRefused, check_tree, collect_members, finish
+from scintrack.archive.build import ArchiveRefused, check_results_config, check_tree, collect_members, finish
 from scintrack.archive.metadata import benchmark_timings
 from scintrack.archive.tarball import write_tarball
 from scintrack.io import git_state
 
 sm = snakemake  # noqa: F821
 log = runlog.setup(sm.log[0], "archive")
-cfg = sm.config
+cfg = sm.params.config
 git = git_state(Path(scintrack.__file__).resolve().parent)
 try:
-    check_tree(git, bool(cfg["archive"]["allow_dirty"]), [sm.input.figure_sums, sm.input.table_sums])
+    check_tree(git, bool(sm.params.allow_dirty), [sm.input.figure_sums, sm.input.table_sums])
+    check_results_config(cfg, sm.input.results)
 except ArchiveRefused as exc:
     log.error("%s", exc)
     sys.exit(str(exc))
 outputs = [*sm.input.figures, *sm.input.tables, *sm.input.compare, sm.input.manifest, sm.input.figure_sums, sm.input.table_sums]
 extra = {"environment.lock": sm.input.lock, "registry/registry.yaml": sm.input.registry}
-members, manifest = collect_members(outputs=outputs, results=sm.input.results, extra=extra, max_result_mb=float(cfg["archive"]["max_result_mb"]))
+members, manifest = collect_members(outputs=outputs, results=sm.input.results, extra=extra, max_result_mb=float(sm.params.max_result_mb))
 timings = benchmark_timings(sorted(Path("results/benchmarks").rglob("*.tsv")))
 members = finish(members, config=cfg, git=git, timings=timings, name=sm.params.name, version=sm.params.version)
 digest = write_tarball(members, sm.output[0], root=f"{sm.params.name}-{sm.params.version}")

@@ -14,6 +14,6 @@ if version != sm.wildcards.version:
         "request that path (old versions are kept but never regenerated with new parameters)"
     )
 ds = csm_training_dataset(params)
-ds.attrs.update(provenance(config=sm.config, seed=params["seed"], extra={"params": params}))
+ds.attrs.update(provenance(config=params, seed=params["seed"], extra={"params": params}))
 digest = write_netcdf(ds, sm.output[0])
 log.info("wrote %s (content sha256 %s)", sm.output[0], digest)

@@ -15,6 +15,6 @@ try:
 except ValueError as exc:  # an unreachable S4 / sigma_phi target: name the setting
     raise SystemExit(f"real_traces.surrogate.events.{params['event']}: {exc}") from None
 ds.attrs.update({"dataset_name": f"surrogate_{params['event']}", "dataset_version": version, "generator": GENERATOR})
-ds.attrs.update(provenance(config=sm.config, seed=params["seed"], extra={"params": params}))
+ds.attrs.update(provenance(config=params, seed=params["seed"], extra={"params": params}))
 digest = write_netcdf(ds, sm.output[0])
 log.info("wrote %s: mean S4 %s, sigma_phi %s (content %s)", sm.output[0], ds["mean_s4"].values.round(3), ds["mean_sigma_phi"].values.round(3), digest)

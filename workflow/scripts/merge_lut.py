@@ -8,7 +8,7 @@ sm = snakemake  # noqa: F821
 log = runlog.setup(sm.log[0], "ar_lut")
 fits = [open_dataset(p) for p in sm.input]
 lut = merge_lut(fits)
-lut.attrs.update(provenance(config=sm.config, inputs=sm.input))
+lut.attrs.update(provenance(config=sm.params.lut, inputs=sm.input))
 lut.attrs["ts"] = fits[0].attrs["ts"]
 lut.attrs["title"] = "AR scintillation look-up table (CSM, Vila-Valls 2018 Sec. III)"
 write_netcdf(lut, sm.output[0])

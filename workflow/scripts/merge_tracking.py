@@ -6,8 +6,9 @@ from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
 log = runlog.setup(sm.log[0], "tracking_merge")
+run = sm.params.run
 result = merge([open_dataset(p) for p in sm.input])
-result.attrs.update(provenance(config=sm.config, seed=int(sm.config["seed"]), inputs=list(sm.input), extra={"experiment": sm.wildcards.experiment}))
-result.attrs["title"] = f"{sm.wildcards.experiment}: {sm.wildcards.scenario} ({int(result['n_trials'])} trials, synthetic CSM data)"
+result.attrs.update(provenance(config=run, seed=int(run["seed"]), inputs=list(sm.input), extra={"experiment": run["experiment"]}))
+result.attrs["title"] = f"{run['experiment']}: {run['scenario_name']} ({int(result['n_trials'])} trials, synthetic CSM data)"
 write_netcdf(result, sm.output[0])
 log.info("merged %d shards", len(sm.input))

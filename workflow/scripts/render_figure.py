@@ -1,22 +1,20 @@
-"""Figure rule entry point: call one figure function on its result files.
+"""Figure rule entry point: call one registered figure function on its result files.
 
-``params.module``/``params.function`` name the function (the link from a
-figure to the code that drew it), inputs are passed as opened Datasets by
-keyword, ``params.kwargs`` as extra arguments.
+``params.product`` names the rule; :mod:`scintrack.products` holds the
+function it was declared on (the link from a figure to the code that drew
+it).  Inputs are passed as opened Datasets by keyword, ``params.kwargs`` as
+extra arguments.
 """
 
-import importlib
-from pathlib import Path
-
 from scintrack import runlog
-from scintrack.figures.common import save_figure, update_checksums
+from scintrack.figures.common import save_figure
 from scintrack.io import open_dataset
+from scintrack.products import get
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], sm.params.function)
-func = getattr(importlib.import_module(sm.params.module), sm.params.function)
+product = get(sm.params.product)
+log = runlog.setup(sm.log[0], product.name)
 datasets = {name: open_dataset(path) for name, path in sm.input.items()}
-fig = func(*datasets.values(), **dict(sm.params.kwargs))
+fig = product.function(*datasets.values(), **dict(sm.params.kwargs))
 written = save_figure(fig, [sm.output.pdf, sm.output.png])
-update_checksums(Path(sm.output.pdf).parent.parent, written)
 log.info("rendered %s", ", ".join(map(str, written)))

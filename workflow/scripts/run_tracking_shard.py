@@ -1,4 +1,8 @@
-"""Experiment rule entry point: one shard of a tracking Monte Carlo."""
+"""Experiment rule entry point: one shard of a tracking Monte Carlo.
+
+Everything comes from ``params.run`` (scintrack.pipeline.params.experiment
+plus the shard's trials); the result records the hash of exactly those values.
+"""
 
 from scintrack import runlog
 from scintrack.experiments.runner import run_shard
@@ -6,24 +10,30 @@ from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
 log = runlog.setup(sm.log[0], "tracking_shard")
-cfg = sm.config
-scenario = sm.wildcards.scenario
-if scenario not in cfg["scenarios"]:
-    raise SystemExit(f"experiment {sm.wildcards.experiment}: scenario {scenario!r} is not defined under 'scenarios' in the config")
+run = sm.params.run
 lut = open_dataset(sm.input.lut)
 ds = run_shard(
-    scenario_name=scenario,
-    scenario=cfg["scenarios"][scenario],
-    tracker_names=list(sm.params.trackers),
-    tracker_specs=cfg["trackers"],
-    tracking=cfg["tracking"],
+    scenario_name=run["scenario_name"],
+    scenario=run["scenario"],
+    tracker_names=list(run["tracker_names"]),
+    tracker_specs=run["trackers"],
+    tracking=run["tracking"],
     lut=lut,
-    seed=int(cfg["seed"]),
-    ts=float(cfg["sampling"]["ts"]),
-    nspa=int(cfg["sampling"]["nspa"]),
-    warmup_s=float(cfg["csm"]["warmup_s"]),
-    trials=list(sm.params.trials),
+    seed=int(run["seed"]),
+    ts=float(run["ts"]),
+    nspa=int(run["nspa"]),
+    warmup_s=float(run["warmup_s"]),
+    trials=list(run["trials"]),
 )
-ds.attrs.update(provenance(config=cfg, seed=int(cfg["seed"]), inputs=list(sm.input), extra={"experiment": sm.wildcards.experiment}))
+tracking = run["tracking"]
+ds.attrs.update(
+    {
+        "cn0_dbhz": float(run["scenario"].get("cn0_dbhz", tracking["cn0_dbhz"])),
+        "fd0_hz": float(tracking["fd0_hz"]),
+        "fr_hz_s": float(tracking["fr_hz_s"]),
+        "ts": float(run["ts"]),
+    }
+)
+ds.attrs.update(provenance(config=run, seed=int(run["seed"]), inputs=list(sm.input), extra={"experiment": run["experiment"]}))
 write_netcdf(ds, sm.output[0])
-log.info("%s/%s: trials %s..%s", sm.wildcards.experiment, scenario, sm.params.trials[0], sm.params.trials[-1])
+log.info("%s/%s: trials %s..%s", run["experiment"], run["scenario_name"], run["trials"][0], run["trials"][-1])

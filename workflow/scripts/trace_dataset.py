@@ -9,12 +9,13 @@ from scintrack.io import content_hash, provenance, sha256_file, write_netcdf
 sm = snakemake  # noqa: F821
 log = runlog.setup(sm.log[0], "trace_dataset")
 event = sm.wildcards.event
+run = sm.params.trace
 try:
-    ds = load_trace(sm.input[0], list(sm.params.bands), float(sm.config["sampling"]["ts"]), event=event, source="real")
+    ds = load_trace(sm.input[0], list(run["bands"]), float(run["ts"]), event=event, source="real")
 except TraceFormatError as exc:
     log.error("%s", exc)
     sys.exit(f"trace_dataset: {exc}")
-ds.attrs.update(provenance(config=None, seed=None, inputs=list(sm.input)))
+ds.attrs.update(provenance(config=run, seed=None, inputs=list(sm.input)))
 ds.attrs.update({"dataset_name": f"jrc_hanoi_{event}", "dataset_version": sha256_file(sm.input[0])[:12], "generator": "", "generator_version": "", "params": "{}"})
 write_netcdf(ds, sm.output[0])
 log.info("%s: %d samples, bands %s, content %s", event, ds.sizes["time"], list(ds["band"].values), content_hash(ds)[:12])

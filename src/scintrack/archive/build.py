@@ -17,7 +17,7 @@ from typing import Any
 
 import yaml
 
-from ..figures.common import read_checksums
+from ..checksums import read_checksums
 from ..io import content_hash, open_dataset, sha256_file
 from . import metadata
 from .tarball import SUMS, sums_text
@@ -43,6 +43,21 @@ def check_tree(git: Mapping[str, Any], allow_dirty: bool, checksum_files: Iterab
                 raise ArchiveRefused(f"archive: {path} does not match {sums}: the results tree changed after it was built; rerun snakemake")
 
 
+def check_results_config(config: Mapping[str, Any], results: Iterable[str | Path]) -> None:
+    """Refuse results whose recorded config hash is not the one the archived ``config`` gives."""
+    from ..pipeline.consistency import mismatches
+
+    recorded = {}
+    for path in map(Path, results):
+        with open_dataset(path) as ds:
+            recorded[path.as_posix()] = ds.attrs.get("config_sha256")
+    problems = mismatches(config, recorded)
+    if problems:
+        first = problems[0].removeprefix("CONFIG-DIFFERS ")
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise ArchiveRefused(f"archive: {first}{more}; rerun snakemake with this config before archiving")
+
+
 def version_of(package_version: str, git: Mapping[str, Any]) -> str:
     commit = str(git.get("git_commit") or "unknown")[:10]
     return f"{package_version}+g{commit}" + (".dirty" if git.get("git_dirty") else "")
@@ -60,9 +75,12 @@ def collect_members(
     for path in map(Path, outputs):
         members[path.as_posix()] = path.read_bytes()
     manifest: dict[str, Any] = {"content_sha256": {}, "sha256": {}, "included": [], "listed_only": [], "max_result_mb": max_result_mb}
+    manifest["config_sha256"] = {}
     for path in sorted(map(Path, results)):
         rel = path.as_posix()
-        manifest["content_sha256"][rel] = content_hash(open_dataset(path))
+        ds = open_dataset(path)
+        manifest["content_sha256"][rel] = content_hash(ds)
+        manifest["config_sha256"][rel] = ds.attrs.get("config_sha256")
         manifest["sha256"][rel] = sha256_file(path)
         if path.stat().st_size <= max_result_mb * 1e6:
             members[rel] = path.read_bytes()

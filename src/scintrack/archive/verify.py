@@ -2,7 +2,9 @@
 optionally the content hashes of freshly regenerated results against it.
 
 One line per problem: ``CHANGED name``, ``MISSING name``, ``EXTRA name``,
-``RESULT-DIFFERS name``, ``RESULT-MISSING name``.  No lines means verified.
+``CONFIG-DIFFERS name`` (a result whose recorded config hash is not the one
+the bundle's own ``config/config.yaml`` gives), ``RESULT-DIFFERS name``,
+``RESULT-MISSING name``.  No lines means verified.
 """
 
 from __future__ import annotations
@@ -37,6 +39,33 @@ def check_sums(members: dict[str, bytes]) -> list[str]:
     return problems
 
 
+def _nc_attr(data: bytes, name: str):
+    import netCDF4
+
+    with netCDF4.Dataset("bundle-member.nc", mode="r", memory=data) as nc:
+        return nc.getncattr(name) if name in nc.ncattrs() else None
+
+
+def check_config(members: dict[str, bytes]) -> list[str]:
+    """Every result (packed, or listed by hash) against the bundle's config."""
+    import yaml
+
+    from ..pipeline.consistency import mismatches
+
+    if "config/config.yaml" not in members or "results_manifest.json" not in members:
+        return []  # reported by check_sums / check_results
+    config = yaml.safe_load(members["config/config.yaml"])
+    manifest = json.loads(members["results_manifest.json"])
+    recorded = dict(manifest.get("config_sha256", {}))
+    for rel in manifest.get("included", []):
+        if rel in members:  # the packed file itself, not only the manifest's copy of its hash
+            recorded[rel] = _nc_attr(members[rel], "config_sha256")
+    problems = mismatches(config, recorded)
+    unknown = sorted(set(manifest["content_sha256"]) - set(recorded))
+    problems += [f"CONFIG-DIFFERS {rel} (no config hash recorded)" for rel in unknown]
+    return problems
+
+
 def check_results(members: dict[str, bytes], tree: str | Path) -> list[str]:
     """Content hashes of the results regenerated in ``tree`` against the bundle's results manifest."""
     from ..io import content_hash, open_dataset
@@ -59,6 +88,7 @@ def check_results(members: dict[str, bytes], tree: str | Path) -> list[str]:
 def verify(bundle: str | Path, against: str | Path | None = None) -> list[str]:
     members = load_bundle(bundle)
     problems = check_sums(members)
+    problems += check_config(members)
     if against is not None:
         problems += check_results(members, against)
     return problems

@@ -31,7 +31,7 @@ from ..signals import phase_screen as ps
 from .versioning import code_version, dataset_version
 
 GENERATOR = "scintrack.signals.phase_screen"
-GENERATOR_VERSION = code_version(ps.GENERATOR_VERSION, ps, __file__)
+GENERATOR_VERSION = code_version(ps.GENERATOR_VERSION, __name__)
 MARGIN_S = 20.0  # generated and dropped at both ends (no wrap-around of the periodic screen)
 
 

@@ -13,13 +13,12 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ..signals import csm as _csm_module
 from ..signals.csm import GENERATOR_VERSION as _LABEL
 from ..signals.csm import generate_csm
 from .versioning import code_version, dataset_version
 
 GENERATOR = "scintrack.signals.csm.generate_csm"
-GENERATOR_VERSION = code_version(_LABEL, _csm_module, __file__)
+GENERATOR_VERSION = code_version(_LABEL, __name__)
 
 
 def csm_training_params(config: Mapping[str, Any], s4: float) -> dict[str, Any]:

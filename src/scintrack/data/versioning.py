@@ -2,30 +2,28 @@
 
 A dataset's version is not chosen by hand: it is a short hash of the
 generator's name, its code version and every parameter (seed included).  The
-code version (:func:`code_version`) is a hash of the generator's source files
-plus its ``GENERATOR_VERSION`` label, so editing the generator (even a comment,
-conservatively) or any parameter gives a new version, hence a new file path
+code version (:func:`code_version`) is the generator's label plus
+:func:`scintrack.codeversion.code_version` of the dataset module, i.e. a hash
+of the normalised source (AST without comments or docstrings) of every
+``scintrack`` module that module imports, the same mechanism the Snakemake
+rules use for their ``code`` param.  So changing what the generator computes,
+or any parameter, gives a new version, hence a new file path
 ``data/synthetic/<name>/<version>.nc``; old versions stay where they were and
-stay addressable by their path.
+stay addressable by their path; a comment or a docstring changes nothing.
 """
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Mapping
-from pathlib import Path
-from types import ModuleType
 from typing import Any
 
+from .. import codeversion
 from ..io import hash_object
 
 
-def code_version(label: str, *sources: ModuleType | str | Path) -> str:
-    """``<label>-<sha256 of the sources (modules or file paths), 12 hex>``."""
-    h = hashlib.sha256()
-    for src in sources:
-        h.update(Path(src.__file__ if isinstance(src, ModuleType) else src).read_bytes())
-    return f"{label}-{h.hexdigest()[:12]}"
+def code_version(label: str, module: str) -> str:
+    """``<label>-<12 hex of the normalised import closure of ``module``>``."""
+    return f"{label}-{codeversion.code_version([module], length=12)}"
 
 
 def dataset_version(generator: str, generator_version: str, params: Mapping[str, Any]) -> str:

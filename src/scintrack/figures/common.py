@@ -1,15 +1,13 @@
-"""Deterministic figure output and the ``SHA256SUMS`` manifest beside figures.
+"""Deterministic figure output and shared axis helpers.
 
 Figures are saved as PDF and PNG with fixed metadata (no dates, no software
 stamp), so the same inputs in the locked environment give the same bytes.
-:func:`update_checksums` rewrites the entries of the files just rendered in
-the folder's ``SHA256SUMS`` under an exclusive lock, so two rules rendering
-at once never lose each other's lines.
+The ``SHA256SUMS`` manifests are written by their own rules
+(:mod:`scintrack.checksums`).
 """
 
 from __future__ import annotations
 
-import fcntl
 import os
 from collections.abc import Iterable
 from pathlib import Path
@@ -19,8 +17,6 @@ import matplotlib
 matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
-
-from ..io import sha256_file, write_text  # noqa: E402
 
 STYLE = {
     "figure.dpi": 100,
@@ -59,26 +55,10 @@ def save_figure(fig, paths: Iterable[str | os.PathLike]) -> list[Path]:
     return written
 
 
-def read_checksums(path: Path) -> dict[str, str]:
-    sums = {}
-    if path.exists():
-        for line in path.read_text().splitlines():
-            if line.strip():
-                digest, name = line.split(maxsplit=1)
-                sums[name.lstrip("*")] = digest
-    return sums
+def symlog_axis(ax, linthresh: float) -> None:
+    """Symmetric-log y axis with every decade and the linear part labelled in plain numbers."""
+    from matplotlib.ticker import FuncFormatter, SymmetricalLogLocator
 
-
-def update_checksums(folder: str | os.PathLike, files: Iterable[str | os.PathLike]) -> Path:
-    """Set the ``sha256sum``-format entries of ``files`` in ``folder/SHA256SUMS``."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    sums_path = folder / "SHA256SUMS"
-    lock_path = folder / ".SHA256SUMS.lock"
-    with open(lock_path, "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        sums = read_checksums(sums_path)
-        for f in map(Path, files):
-            sums[f.resolve().relative_to(folder.resolve()).as_posix()] = sha256_file(f)
-        write_text("".join(f"{sums[k]}  {k}\n" for k in sorted(sums)), sums_path)
-    return sums_path
+    ax.set_yscale("symlog", linthresh=linthresh)
+    ax.yaxis.set_major_locator(SymmetricalLogLocator(base=10, linthresh=linthresh, subs=[1.0]))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))

@@ -3,6 +3,8 @@
 Each function takes the result Datasets of its rule and returns a figure.
 The data source (``attrs["source"]``: "real" or "surrogate") is printed in
 every title; surrogate figures say plainly that they are not JRC data.
+Registered with the workflow by the decorators (:mod:`scintrack.products`);
+their files get the ``_surrogate`` suffix when the traces are the surrogate.
 """
 
 from __future__ import annotations
@@ -10,8 +12,22 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from .common import new_figure
-from .vila_valls_2018 import LOSS_OF_LOCK_RAD, tracker_label
+from ..labels import tracker_label
+from ..pipeline import paths
+from ..products import figure
+from .common import new_figure, symlog_axis
+from .vila_valls_2018 import LOSS_OF_LOCK_RAD
+
+PAPER = "vila_valls_2018"
+SEC_TRACES = "Sec. VI-E: real traces"
+
+
+def _rt(config):
+    return config["real_traces"]
+
+
+def _diag(config):
+    return {"diag": paths.trace_diagnostics_path(config)}
 
 BAND_COLOURS = {"L1": "C0", "L2": "C1", "L5": "C2"}
 
@@ -22,6 +38,9 @@ def source_note(ds: xr.Dataset) -> str:
     return "SYNTHETIC SURROGATE (phase screen), not JRC data"
 
 
+@figure("fig10", "fig10_trace_amplitude_bands", paper=PAPER, section=SEC_TRACES, trace=True,
+        inputs=lambda c: {"trace": paths.trace_path(c, _rt(c)["fig10"]["event"])},
+        kwargs=lambda c: {"start_s": _rt(c)["fig10"]["start_s"], "length_s": _rt(c)["fig10"]["length_s"]})
 def fig10(trace, start_s: float = 0.0, length_s: float = 100.0):
     """100 s of amplitude at every band, in dB."""
     fig, axes = new_figure(trace.sizes["band"], 1, figsize=(6.4, 6.0), sharex=True)
@@ -38,6 +57,8 @@ def fig10(trace, start_s: float = 0.0, length_s: float = 100.0):
     return fig
 
 
+@figure("fig11", "fig11_static_scintillation_tracking", paper=PAPER, section=SEC_TRACES, trace=True,
+        inputs=lambda c: {"static": paths.trace_static_path(c, _rt(c)["fig11"]["event"])}, kwargs=lambda c: {"band": _rt(c)["fig11"]["band"]})
 def fig11(static, band: str = "L1"):
     """True and AEKF-AR-estimated amplitude and phase (dynamics-free), first trial."""
     fig, axes = new_figure(2, 1, figsize=(6.4, 6.0), sharex=True)
@@ -60,6 +81,7 @@ def fig11(static, band: str = "L1"):
     return fig
 
 
+@figure("fig12", "fig12_trace_s4", paper=PAPER, section=SEC_TRACES, trace=True, inputs=_diag)
 def fig12(diag):
     """S4 against time of every event (all bands)."""
     events = list(diag["event"].values)
@@ -101,14 +123,19 @@ def _pacf(diag, component: str, fig_no: int):
     return fig
 
 
+@figure("fig13", "fig13_trace_amplitude_pacf", paper=PAPER, section=SEC_TRACES, trace=True, inputs=_diag, kwargs=lambda c: {"component": "amplitude"})
 def fig13(diag, component: str = "amplitude"):
     return _pacf(diag, component, 13)
 
 
+@figure("fig14", "fig14_trace_phase_pacf", paper=PAPER, section=SEC_TRACES, trace=True, inputs=_diag, kwargs=lambda c: {"component": "phase"})
 def fig14(diag, component: str = "phase"):
     return _pacf(diag, component, 14)
 
 
+@figure("fig15", "fig15_trace_phase_error", paper=PAPER, section=SEC_TRACES, trace=True,
+        inputs=lambda c: {f"{e}_{b}": paths.trace_dynamics_path(c, e) for e, b in _rt(c)["fig15"]},
+        kwargs=lambda c: {"cases": [list(case) for case in _rt(c)["fig15"]]})
 def fig15(*results, cases=()):
     """Dynamics phase error (unwrapped, in cycles, first realisation) of every tracker on two event/band cases.
 
@@ -120,11 +147,11 @@ def fig15(*results, cases=()):
         d = res.sel(band=band)
         t = d["time"].values
         for name in d["tracker"].values:
-            ax.plot(t, d["example_error"].sel(tracker=name).values / (2 * np.pi), lw=0.8, label=tracker_label(str(name)))
+            ax.plot(t, d["example_error"].sel(tracker=name).values / (2 * np.pi), lw=0.8, label=tracker_label(res, name, for_figure=True))
         lock = LOSS_OF_LOCK_RAD / (2 * np.pi)
         ax.axhspan(-lock, lock, color="0.85", lw=0, label="$\\pm$0.52 rad")
         if np.abs(d["example_error"].values).max() > 4 * np.pi:
-            ax.set_yscale("symlog", linthresh=1.0)
+            symlog_axis(ax, linthresh=1.0)
             ax.set_ylabel(r"$\theta_d$ error [cycles] (symlog)")
         else:
             ax.set_ylabel(r"$\theta_d$ error [cycles]")

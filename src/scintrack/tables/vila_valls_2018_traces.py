@@ -3,6 +3,8 @@
 Every table says which data it was computed from; with the surrogate, the
 twins state that the paper's numbers come from real JRC traces and ours from
 a stand-in, so the comparison shows orders of magnitude and orderings only.
+Registered with the workflow by the decorators (:mod:`scintrack.products`);
+their files get the ``_surrogate`` suffix when the traces are the surrogate.
 """
 
 from __future__ import annotations
@@ -12,9 +14,19 @@ import pandas as pd
 import xarray as xr
 
 from ..experiments.metrics import mean_with_ci
-from ..figures.vila_valls_2018 import tracker_label
+from ..labels import tracker_labels
+from ..pipeline import paths
+from ..products import table
 from .paper_values import TRACKERS_5, VILA_VALLS_2018_TABLE_V, VILA_VALLS_2018_TABLE_VI, VILA_VALLS_2018_TABLE_VIII
 from .twin import twin_rows
+
+PAPER = "vila_valls_2018"
+SEC_TRACES = "Sec. VI-E: real traces"
+
+
+def _per_event(path_of):
+    return lambda c: {e: path_of(c, e) for e in c["real_traces"]["events"]}
+
 
 TRACE_TRACKERS = {"akf_ar_trace": "akf_ar", "aekf_ar_trace": "aekf_ar"}
 
@@ -32,6 +44,8 @@ def _paper_key(tracker: str) -> str:
     return TRACE_TRACKERS.get(tracker, tracker)
 
 
+@table("table05", ["table05_static_tracking", "table05_static_tracking_vs_paper"], paper=PAPER, section=SEC_TRACES, trace=True,
+       inputs=_per_event(paths.trace_static_path))
 def table05(*statics: xr.Dataset) -> dict:
     """Table V: AEKF-AR amplitude and phase RMSE, dynamics-free, per event and band."""
     grid, cells = [], []
@@ -61,14 +75,17 @@ def table05(*statics: xr.Dataset) -> dict:
     }
 
 
+@table("table06", ["table06_trace_rmse", "table06_trace_rmse_vs_paper"], paper=PAPER, section=SEC_TRACES, trace=True,
+       inputs=_per_event(paths.trace_dynamics_path))
 def table06(*dyns: xr.Dataset) -> dict:
     """Table VI: RMSE of theta_d (wrapped) for every tracker, event and band."""
     grid, cells = [], []
     for dy in dyns:
         ev = dy.attrs["event"]
+        label = tracker_labels(dy)
         for tr in dy["tracker"].values:
             tr = str(tr)
-            row = {"event": ev, "tracker": tracker_label(tr)}
+            row = {"event": ev, "tracker": label[tr]}
             for j, band in enumerate(dy["band"].values):
                 band = str(band)
                 d = dy.sel(band=band, tracker=tr, kind="wrapped")
@@ -76,13 +93,13 @@ def table06(*dyns: xr.Dataset) -> dict:
                 row[f"E_theta_d {band}"] = s
                 row[f"unwrapped {band}"] = float(dy.sel(band=band, tracker=tr, kind="unwrapped")["steady_rmse"])
                 paper = VILA_VALLS_2018_TABLE_VI.get(ev, {}).get(_paper_key(tr))
-                cells.append({"row": f"{ev} {tracker_label(tr)}", "column": band, "paper": paper[j] if paper and j < len(paper) else None, "ours": s, "lo": lo, "hi": hi})
+                cells.append({"row": f"{ev} {label[tr]}", "column": band, "paper": paper[j] if paper and j < len(paper) else None, "ours": s, "lo": lo, "hi": hi})
             grid.append(row)
     d0 = dyns[0]
     note = (
         f"RMSE of theta_d from {d0.attrs['rmse_start_s']:g} s to the end of the {d0.attrs['eval_s']:g} s evaluation segment "
         f"(the paper: 'the mean error over the processed sequence'), wrapped error, {int(d0['n_trials'].max())} realisations of noise and initial phase "
-        "on the same trace; f_d0 = 50 Hz, f_r = 100 Hz/s, C/N0 from the tracking settings. AKF-AR and AEKF-AR use AR models fitted on the "
+        f"on the same trace; f_d0 = {float(d0.attrs['fd0_hz']):g} Hz, f_r = {float(d0.attrs['fr_hz_s']):g} Hz/s, C/N0 from the tracking settings. AKF-AR and AEKF-AR use AR models fitted on the "
         "first part of the same trace (non-adaptive). " + _source_note(d0)
     )
     return {
@@ -91,11 +108,14 @@ def table06(*dyns: xr.Dataset) -> dict:
     }
 
 
+@table("table08", ["table08_trace_cycle_slips", "table08_trace_cycle_slips_vs_paper"], paper=PAPER, section=SEC_TRACES, trace=True,
+       inputs=_per_event(paths.trace_dynamics_path))
 def table08(*dyns: xr.Dataset) -> dict:
     """Table VIII: cycle-slip events per event and band (mean over realisations)."""
     grid, cells = [], []
     for dy in dyns:
         ev = dy.attrs["event"]
+        label = tracker_labels(dy)
         for band in dy["band"].values:
             band = str(band)
             row = {"event, band": f"{ev} {band}"}
@@ -104,9 +124,9 @@ def table08(*dyns: xr.Dataset) -> dict:
                 tr = str(tr)
                 v = dy.sel(band=band, tracker=tr)["slip_events"].values
                 m, lo, hi = mean_with_ci(v)
-                row[tracker_label(tr)] = float(m)
+                row[label[tr]] = float(m)
                 k = TRACKERS_5.index(_paper_key(tr)) if _paper_key(tr) in TRACKERS_5 else None
-                cells.append({"row": f"{ev} {band}", "column": tracker_label(tr), "paper": float(paper[k]) if paper and k is not None else None, "ours": float(m), "lo": float(lo), "hi": float(hi)})
+                cells.append({"row": f"{ev} {band}", "column": label[tr], "paper": float(paper[k]) if paper and k is not None else None, "ours": float(m), "lo": float(lo), "hi": float(hi)})
             grid.append(row)
     d0 = dyns[0]
     note = (
@@ -119,6 +139,7 @@ def table08(*dyns: xr.Dataset) -> dict:
     }
 
 
+@table("tableS3", ["tableS3_trace_data"], paper=PAPER, section=SEC_TRACES, trace=True, inputs=_per_event(paths.trace_path))
 def table_s3(*traces: xr.Dataset) -> dict:
     """Supplement S3: what the traces are (source, length, S4 and sigma_phi per band)."""
     from ..signals.phase_screen import window_s4, window_sigma_phi

@@ -1,0 +1,148 @@
+"""Code versions from the code, not its bytes.
+
+One mechanism for the two places where a result must follow the code that
+made it: the ``code`` param of every Snakemake rule (so editing a module
+reruns exactly the rules that import it) and the version of a generated
+dataset (:mod:`scintrack.data.versioning`).
+
+* :func:`normalised_source` is the module's abstract syntax tree without
+  docstrings, line numbers or comments (``ast.dump``), so comments,
+  formatting and documentation do not change a version; any change of what
+  the code does does.
+* :func:`import_closure` follows the ``scintrack`` imports of a module or a
+  script (top level and inside functions, absolute and relative) to every
+  module it can reach, so a rule's hash covers what it actually runs without a
+  hand-kept list.
+* :func:`code_version` hashes the normalised sources of that closure.
+
+The dump depends on the Python version's AST, so a different interpreter
+gives different versions (reruns, never stale results); the locked
+environment fixes the interpreter.
+"""
+
+from __future__ import annotations
+
+import ast
+import hashlib
+from collections.abc import Iterable
+from functools import cache
+from pathlib import Path
+
+PACKAGE = "scintrack"
+ROOT = Path(__file__).resolve().parent
+
+
+def module_file(name: str) -> Path | None:
+    """Source file of a ``scintrack`` module or package name (None if there is none)."""
+    if name != PACKAGE and not name.startswith(PACKAGE + "."):
+        return None
+    parts = name.split(".")[1:]
+    if not parts:
+        return ROOT / "__init__.py"
+    rel = Path(*parts)
+    for candidate in (ROOT / rel.with_suffix(".py"), ROOT / rel / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def _module_name(path: Path) -> str | None:
+    try:
+        rel = path.resolve().relative_to(ROOT)
+    except ValueError:
+        return None
+    parts = list(rel.with_suffix("").parts)
+    if parts and parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join([PACKAGE, *parts])
+
+
+def _strip_docstrings(tree: ast.AST) -> ast.AST:
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str):
+                node.body = body[1:] or [ast.Pass()]
+    return tree
+
+
+@cache
+def _parse(path: str) -> ast.Module:
+    return ast.parse(Path(path).read_text(encoding="utf-8"), filename=path)
+
+
+def normalised_source(path: str | Path) -> str:
+    """``ast.dump`` of a file without docstrings and positions (comments never reach the AST)."""
+    tree = _strip_docstrings(ast.parse(Path(path).read_text(encoding="utf-8"), filename=str(path)))
+    return ast.dump(tree, include_attributes=False)
+
+
+def _imports(path: Path, own_name: str | None) -> set[str]:
+    """``scintrack`` modules imported anywhere in a file (``from a import b`` also tries ``a.b``)."""
+    package = None
+    if own_name is not None:
+        package = own_name if path.name == "__init__.py" else own_name.rpartition(".")[0]
+    found: set[str] = set()
+    for node in ast.walk(_parse(str(path))):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                if package is None:
+                    continue
+                base_parts = package.split(".")
+                base_parts = base_parts[: len(base_parts) - (node.level - 1)]
+                base = ".".join(base_parts + ([node.module] if node.module else []))
+            else:
+                base = node.module or ""
+            found.add(base)
+            found.update(f"{base}.{alias.name}" for alias in node.names)
+    return {name for name in found if module_file(name) is not None}
+
+
+def _with_parents(name: str) -> set[str]:
+    """A module and the packages above it (their ``__init__`` runs on import)."""
+    parts = name.split(".")
+    return {".".join(parts[:i]) for i in range(1, len(parts) + 1)}
+
+
+def import_closure(entries: Iterable[str | Path]) -> list[str]:
+    """Every ``scintrack`` module reachable from ``entries`` (module names or script/module paths)."""
+    todo: list[str] = []
+    for entry in entries:
+        if isinstance(entry, Path) or str(entry).endswith(".py"):
+            path = Path(entry)
+            name = _module_name(path)
+            if name is None:  # a script outside the package: only its imports count
+                todo.extend(_imports(path, None))
+                continue
+            todo.append(name)
+        else:
+            if module_file(str(entry)) is None:
+                raise ValueError(f"{entry!r} is not a module of the {PACKAGE} package")
+            todo.append(str(entry))
+    seen: set[str] = set()
+    while todo:
+        name = todo.pop()
+        for mod in _with_parents(name):
+            if mod in seen:
+                continue
+            seen.add(mod)
+            todo.extend(_imports(module_file(mod), mod))
+    return sorted(seen)
+
+
+def code_version(entries: Iterable[str | Path], length: int = 16) -> str:
+    """Hash of the normalised sources of the import closure of ``entries``.
+
+    Scripts outside the package (``workflow/scripts/*.py``) contribute their
+    own normalised source as well as their imports.
+    """
+    entries = list(entries)
+    h = hashlib.sha256()
+    for entry in entries:
+        if (isinstance(entry, Path) or str(entry).endswith(".py")) and _module_name(Path(entry)) is None:
+            h.update(b"script\0" + normalised_source(entry).encode())
+    for name in import_closure(entries):
+        h.update(name.encode() + b"\0" + normalised_source(module_file(name)).encode())
+    return h.hexdigest()[:length]

@@ -1,0 +1,171 @@
+"""Which config values each result depends on.
+
+Every rule of the workflow gets, as ``params``, exactly the values its output
+depends on, including those of its inputs (transitively), so that
+
+* Snakemake's params trigger reruns a job when, and only when, one of them
+  changes (``snakemake -n`` after a config edit lists exactly the affected jobs);
+* the result records ``config_sha256 = hash_object(params)``
+  (:func:`scintrack.io.provenance`), and :mod:`.consistency` can recompute
+  the same hash from any config (the archived one, say) and refuse a result
+  that was computed with other values.
+
+The functions take the merged config and the wildcards of a result and return
+plain JSON-able dicts.  Scripts read these params, never ``snakemake.config``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from ..data.surrogate import surrogate_params
+from ..data.synthetic import csm_training_params
+from . import paths
+
+# tracking settings that define the scenario (truth, observations) and the metrics
+SCENARIO_TRACKING_KEYS = ("cn0_dbhz", "amplitude", "fd0_hz", "fr_hz_s", "steady_state_start_s", "slip_hysteresis_rad", "slip_settle_s")
+
+
+def _sampling(config: Mapping[str, Any]) -> dict[str, Any]:
+    return {"ts": float(config["sampling"]["ts"]), "nspa": int(config["sampling"]["nspa"]), "warmup_s": float(config["csm"]["warmup_s"])}
+
+
+def tracker_specs(config: Mapping[str, Any], names) -> dict[str, Any]:
+    return {name: dict(config["trackers"][name]) for name in names}
+
+
+def tracking_slice(config: Mapping[str, Any], names) -> dict[str, Any]:
+    """The ``tracking`` keys that the scenario, the metrics and the named trackers read."""
+    try:
+        from ..trackers.registry import tracking_keys
+    except ImportError:  # MERGE-TODO: the tracker registry lands from the architecture branch
+        def tracking_keys(spec):
+            return config["tracking"].keys()
+
+    tracking = config["tracking"]
+    keys = set(SCENARIO_TRACKING_KEYS)
+    for name in names:
+        keys.update(tracking_keys(config["trackers"][name]))
+    return {key: tracking[key] for key in sorted(keys) if key in tracking}
+
+
+def training(config: Mapping[str, Any], s4: float | str) -> dict[str, Any]:
+    return csm_training_params(config, float(s4))
+
+
+def ar_fit(config: Mapping[str, Any], s4: float | str) -> dict[str, Any]:
+    return {"ar_models": dict(config["ar_models"]), "training": training(config, s4)}
+
+
+def ar_lut(config: Mapping[str, Any]) -> dict[str, Any]:
+    return {"ar_models": dict(config["ar_models"]), "training": [training(config, s4) for s4 in config["ar_training"]["s4"]]}
+
+
+def ar_diagnostics(config: Mapping[str, Any]) -> dict[str, Any]:
+    vv = config["figures"]["vila_valls_2018"]
+    cases = vv["ar_cases"]
+    return {
+        "cases": {k: dict(v) for k, v in cases.items()},
+        "orders": list(vv["psd_orders"]),
+        "nperseg": int(vv["welch_nperseg"]),
+        "fits": {paths.fmt(c["s4"]): ar_fit(config, c["s4"]) for c in cases.values()},
+    }
+
+
+def experiment(config: Mapping[str, Any], name: str, scenario: str) -> dict[str, Any]:
+    """Everything one (experiment, scenario) result depends on."""
+    spec = config["experiments"][name]
+    if scenario not in config["scenarios"]:
+        raise KeyError(f"experiment {name}: scenario {scenario!r} is not defined under 'scenarios' in the config")
+    trackers = list(spec["trackers"])
+    return {
+        "experiment": name,
+        "scenario_name": scenario,
+        "scenario": dict(config["scenarios"][scenario]),
+        "tracker_names": trackers,
+        "trackers": tracker_specs(config, trackers),
+        "tracking": tracking_slice(config, trackers),
+        "seed": int(config["seed"]),
+        **_sampling(config),
+        "n_trials": int(spec["trials"]),
+        "shards": int(spec["shards"]),
+        "lut": ar_lut(config),
+    }
+
+
+def shard_trials(config: Mapping[str, Any], name: str, shard: int) -> list[int]:
+    """Contiguous block of trial indices of one shard."""
+    spec = config["experiments"][name]
+    n, k = int(spec["trials"]), int(spec["shards"])
+    edges = [round(i * n / k) for i in range(k + 1)]
+    return list(range(edges[shard], edges[shard + 1]))
+
+
+def experiment_shard(config: Mapping[str, Any], name: str, scenario: str, shard: int) -> dict[str, Any]:
+    return {**experiment(config, name, scenario), "trials": shard_trials(config, name, shard)}
+
+
+# --- Sec. VI-E: real traces or the surrogate -------------------------------------
+
+
+def trace_input(config: Mapping[str, Any], event: str) -> dict[str, Any]:
+    """What defines the canonical trace file of an event."""
+    rt = config["real_traces"]
+    if paths.trace_source(config) == "real":
+        return {"source": dict(rt["sources"][event]), "bands": list(rt["bands"]), "ts": float(config["sampling"]["ts"])}
+    return {"surrogate": surrogate_params(config, event)}
+
+
+def trace_models(config: Mapping[str, Any], event: str) -> dict[str, Any]:
+    rt = config["real_traces"]
+    return {"trace": trace_input(config, event), "fit_s": float(rt["fit_s"]), "ts": float(config["sampling"]["ts"])}
+
+
+def trace_diagnostics(config: Mapping[str, Any]) -> dict[str, Any]:
+    rt = config["real_traces"]
+    return {
+        "traces": {e: trace_input(config, e) for e in rt["events"]},
+        "ts": float(config["sampling"]["ts"]),
+        "window_s": float(rt["s4_window_s"]),
+        "pacf_lags": int(config["figures"]["vila_valls_2018"]["pacf_lags_shown"]),
+        "segment_s": float(rt["pacf_segment_s"]),
+    }
+
+
+def _trace_experiment(config: Mapping[str, Any], event: str, names) -> dict[str, Any]:
+    rt = config["real_traces"]
+    return {
+        "models": trace_models(config, event),
+        "tracker_names": list(names),
+        "trackers": tracker_specs(config, names),
+        "tracking": tracking_slice(config, names),
+        "seed": int(config["seed"]),
+        "ts": float(config["sampling"]["ts"]),
+        "fit_s": float(rt["fit_s"]),
+        "eval_s": float(rt["eval_s"]),
+        "trials": int(rt["trials"]),
+    }
+
+
+def trace_static(config: Mapping[str, Any], event: str) -> dict[str, Any]:
+    return _trace_experiment(config, event, [config["real_traces"]["static_tracker"]])
+
+
+def trace_dynamics(config: Mapping[str, Any], event: str) -> dict[str, Any]:
+    rt = config["real_traces"]
+    return {**_trace_experiment(config, event, rt["trackers"]), "rmse_start_s": float(rt["rmse_start_s"]), "lut": ar_lut(config)}
+
+
+def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    """Every result file of the default run -> the params it depends on."""
+    out: dict[str, dict[str, Any]] = {paths.AR_LUT: ar_lut(config), paths.VV_DIAGNOSTICS: ar_diagnostics(config)}
+    for name, spec in config["experiments"].items():
+        for scenario in spec["scenarios"]:
+            out[paths.exp_result(name, scenario)] = experiment(config, name, scenario)
+    out[paths.trace_diagnostics_path(config)] = trace_diagnostics(config)
+    for event in config["real_traces"]["events"]:
+        out[paths.trace_models_path(config, event)] = trace_models(config, event)
+        out[paths.trace_static_path(config, event)] = trace_static(config, event)
+        out[paths.trace_dynamics_path(config, event)] = trace_dynamics(config, event)
+    return dict(sorted(out.items()))

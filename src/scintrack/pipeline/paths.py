@@ -1,0 +1,77 @@
+"""Where every dataset and result of the pipeline lives, as a function of the config.
+
+The Snakemake rules (``workflow/rules/common.smk``) and the archive/verify
+code both ask this module, so a path convention exists once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from ..data.surrogate import surrogate_params, surrogate_version
+from ..data.synthetic import csm_training_name, csm_training_params, csm_training_version
+
+AR_LUT = "results/ar_models/ar_lut.nc"
+VV_DIAGNOSTICS = "results/vila_valls_2018/ar_diagnostics.nc"
+DATASET_MANIFEST = "data/manifest.json"
+
+
+def fmt(x: float) -> str:
+    """Canonical text of a grid value in file names (0.9, not 0.90)."""
+    return f"{float(x):g}"
+
+
+def training_path(config: Mapping[str, Any], s4: float | str) -> str:
+    params = csm_training_params(config, float(s4))
+    return f"data/synthetic/{csm_training_name(float(s4))}/{csm_training_version(params)}.nc"
+
+
+def ar_fit_path(s4: float | str) -> str:
+    return f"results/ar_models/fits/s4-{fmt(s4)}.nc"
+
+
+def exp_result(experiment: str, scenario: str) -> str:
+    return f"results/experiments/{experiment}/{scenario}.nc"
+
+
+def trace_source(config: Mapping[str, Any]) -> str:
+    """"real" when real traces are configured, else "surrogate"."""
+    return "real" if config["real_traces"]["sources"] else "surrogate"
+
+
+def raw_trace_path(config: Mapping[str, Any], event: str) -> str:
+    src = config["real_traces"]["sources"][event]
+    fmt_ = src.get("format") or Path(str(src.get("url") or src.get("path")).split("?")[0]).suffix.lstrip(".").lower()
+    if fmt_ not in ("nc", "mat", "npz", "csv"):
+        raise ValueError(f"real_traces.sources.{event}: cannot tell the format from {src}; add format: nc|mat|npz|csv")
+    return f"data/raw/jrc_hanoi/{event}.{fmt_}"
+
+
+def trace_path(config: Mapping[str, Any], event: str) -> str:
+    """The canonical (validated) trace file of an event, real or surrogate."""
+    if trace_source(config) == "real":
+        return f"data/traces/real/{event}.nc"
+    params = surrogate_params(config, event)
+    return f"data/synthetic/surrogate_{event}/{surrogate_version(params)}.nc"
+
+
+def trace_results(config: Mapping[str, Any]) -> str:
+    return f"results/real_traces/{trace_source(config)}"
+
+
+def trace_models_path(config: Mapping[str, Any], event: str) -> str:
+    return f"{trace_results(config)}/ar_models/{event}.nc"
+
+
+def trace_diagnostics_path(config: Mapping[str, Any]) -> str:
+    return f"{trace_results(config)}/diagnostics.nc"
+
+
+def trace_static_path(config: Mapping[str, Any], event: str) -> str:
+    return f"{trace_results(config)}/static/{event}.nc"
+
+
+def trace_dynamics_path(config: Mapping[str, Any], event: str) -> str:
+    return f"{trace_results(config)}/dynamics/{event}.nc"

@@ -1,0 +1,112 @@
+"""Results follow the config and the code: after a complete smoke build, a dry
+run schedules exactly the jobs that a change affects, and nothing for a change
+that affects no result (a comment in a source file).
+
+Config changes are overlays on the smoke config; code changes are made in a
+copy of the workflow and package (file times preserved) run against the same
+working directory, so the repository itself is never edited.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+
+import pytest
+import yaml
+from conftest import REPO, SNAKEMAKE, run_snakemake
+
+from scintrack.config import load_config
+
+pytestmark = pytest.mark.pipeline
+
+
+def planned(proc: subprocess.CompletedProcess) -> dict[str, int]:
+    """Job counts of a dry run (the 'job  count' table), without the total."""
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    text = proc.stdout + proc.stderr
+    if "Nothing to be done" in text:
+        return {}
+    jobs = dict((m.group(1), int(m.group(2))) for m in re.finditer(r"^(\w+)\s+(\d+)$", text, re.M))
+    jobs.pop("total", None)
+    return jobs
+
+
+def dry_run_with(workdir, tmp_path, overlay: dict) -> dict[str, int]:
+    path = tmp_path / "overlay.yaml"
+    path.write_text(yaml.safe_dump(overlay))
+    return planned(run_snakemake(workdir, "-n", "--configfile", str(REPO / "config" / "smoke.yaml"), str(path)))
+
+
+@pytest.fixture(scope="module")
+def smoke_config():
+    return load_config([REPO / "config" / "config.yaml", REPO / "config" / "smoke.yaml"])
+
+
+def test_complete_build_is_up_to_date(smoke_run):
+    assert planned(run_snakemake(smoke_run, "-n")) == {}
+
+
+def test_tracker_parameter_reruns_only_its_experiments(smoke_run, tmp_path, smoke_config):
+    jobs = dry_run_with(smoke_run, tmp_path, {"trackers": {"kf_q1": {"type": "kf", "q_jerk_hz2_s3": 2.0}}})
+    exp = smoke_config["experiments"]["iso_q_sensitivity"]  # the only experiment with kf_q1
+    n = len(exp["scenarios"])
+    assert jobs == {"tracking_shard": n * exp["shards"], "tracking_merge": n, "tableS2": 1, "table_checksums": 1, "all": 1}
+
+
+def test_scenario_duration_reruns_only_that_scenario(smoke_run, tmp_path):
+    jobs = dry_run_with(smoke_run, tmp_path, {"scenarios": {"free": {"duration_s": 5.0}}})
+    assert jobs == {"tracking_shard": 1, "tracking_merge": 1, "fig06": 1, "figure_checksums": 1, "all": 1}
+
+
+def test_figure_option_reruns_only_its_figures(smoke_run, tmp_path):
+    jobs = dry_run_with(smoke_run, tmp_path, {"figures": {"vila_valls_2018": {"welch_nperseg": 128}}})
+    assert jobs == {"ar_diagnostics": 1, "fig01": 1, "fig02": 1, "fig03": 1, "fig04": 1, "figure_checksums": 1, "all": 1}
+
+
+def test_pll_bandwidth_reruns_exactly_the_experiments_with_a_pll(smoke_run, tmp_path, smoke_config):
+    jobs = dry_run_with(smoke_run, tmp_path, {"tracking": {"pll_bandwidth_hz": 15.0}})
+    with_pll = {k: v for k, v in smoke_config["experiments"].items() if "pll" in v["trackers"]}
+    assert 0 < len(with_pll) < len(smoke_config["experiments"])
+    assert jobs["tracking_shard"] == sum(len(v["scenarios"]) * v["shards"] for v in with_pll.values())
+    assert jobs["tracking_merge"] == sum(len(v["scenarios"]) for v in with_pll.values())
+    assert jobs["trace_dynamics"] == len(smoke_config["real_traces"]["events"])  # the trace trackers include the PLL
+    assert "trace_static" not in jobs and "ar_lut" not in jobs and "table04" not in jobs  # case3_mismatch has no PLL
+
+
+def test_config_override_on_the_command_line_is_typed(smoke_run):
+    proc = run_snakemake(smoke_run, "-n", "--config", 'tracking={"pll_bandwidth_hz": 15.0}')
+    assert planned(proc)["trace_dynamics"] >= 1
+
+
+@pytest.fixture()
+def code_copy(tmp_path):
+    """Snakefile, workflow and package copied with their file times."""
+    root = tmp_path / "repo"
+    ignore = shutil.ignore_patterns("__pycache__", ".snakemake")
+    for name in ("workflow", "config", "src"):
+        shutil.copytree(REPO / name, root / name, ignore=ignore)
+    (root / "data").mkdir()
+    shutil.copy2(REPO / "data" / "registry.yaml", root / "data" / "registry.yaml")
+    shutil.copy2(REPO / "Snakefile", root / "Snakefile")
+    shutil.copy2(REPO / "environment.lock", root / "environment.lock")
+    return root
+
+
+def dry_run_copy(root, workdir) -> dict[str, int]:
+    cmd = [SNAKEMAKE, "-s", str(root / "Snakefile"), "--directory", str(workdir), "--configfile", str(root / "config" / "smoke.yaml"), "--cores", "2", "-n"]
+    return planned(subprocess.run(cmd, capture_output=True, text=True, timeout=300))
+
+
+def test_comment_in_a_source_file_reruns_nothing_and_code_change_reruns_its_rules(smoke_run, code_copy):
+    assert dry_run_copy(code_copy, smoke_run) == {}
+    ar = code_copy / "src" / "scintrack" / "models" / "ar.py"
+    ar.write_text(ar.read_text().replace('"""', '"""A docstring edit. ', 1) + "\n# a comment\n")
+    runner = code_copy / "src" / "scintrack" / "experiments" / "runner.py"
+    runner.write_text(runner.read_text() + "\n\n# another comment\n")
+    assert dry_run_copy(code_copy, smoke_run) == {}
+    ar.write_text(ar.read_text() + "\nUNUSED_FOR_THIS_TEST = 1\n")
+    jobs = dry_run_copy(code_copy, smoke_run)
+    assert jobs.get("trace_ar_models") == 3 and jobs.get("ar_fit") == 3  # both import models/ar.py
+    assert "fig10" not in jobs  # draws the trace itself: no AR code involved
