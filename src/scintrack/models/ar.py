@@ -100,8 +100,11 @@ class ScintillationAR:
     def simulate(self, n: int, rng: np.random.Generator, burn: int = 2000) -> tuple[np.ndarray, np.ndarray]:
         """(theta_s, rho_s) drawn from the models themselves, phase first, one generator.
 
-        The amplitude starts at its mean (``lfilter`` initial conditions), so
-        ``burn`` only has to cover the phase's memory.
+        The amplitude filter starts from ``lfilter_zi * rho_mean`` (as the
+        original isolating experiment did; that is the steady state of an input
+        ``rho_mean``, not ``kappa``, so the output starts at ``rho_mean / (1 -
+        sum gamma)``); the ``burn`` samples remove that transient.  Kept as is:
+        the results stay bit-identical.
         """
         theta = self.phase.simulate(n, rng, burn=burn)
         rho = self.amplitude.simulate(n, rng, burn=burn, start=self.rho_mean)
@@ -203,8 +206,8 @@ def simulate_ar(
 
     ``e_k ~ N(0, sigma2) + const`` filtered by ``1 / (1 - sum a_i z^-i)``;
     ``burn`` samples are generated and dropped.  ``start``: the filter starts
-    in the steady state of a constant input at that level (``lfilter_zi``),
-    e.g. the process mean, instead of at rest.
+    from ``lfilter_zi * start`` instead of at rest, i.e. in the steady state
+    of a constant *input* ``start`` (output ``start / (1 - sum a_i)``).
     """
     from scipy import signal
 
