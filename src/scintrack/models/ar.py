@@ -18,6 +18,12 @@ of the initial run of lags whose partial autocorrelation lies outside the 95%
 band ``+-z_{0.975}/sqrt(N)`` that statsmodels returns (i.e. the first lag
 *inside* the band, minus one).  AIC and BIC orders minimise statsmodels' own
 AutoReg AIC/BIC over AR(1..max_order) fitted on a common sample.
+
+Types: :class:`ArModel` is the package's one AR type (fits, look-up-table
+points, trace fits); :class:`ScintillationAR` pairs a phase and an amplitude
+model as the AR-based trackers use them (eqs. 9-10).  :func:`simulate_ar` is
+the one AR simulator (``scipy.signal.lfilter``), used by the AR-world
+scenarios and the tests.
 """
 
 from __future__ import annotations
