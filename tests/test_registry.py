@@ -130,6 +130,16 @@ def test_bad_spec_key_names_its_path(spec, where, what):
     assert msg.endswith("fix it in config/config.yaml or your --configfile/--config overlay")
 
 
+def test_nested_bad_key_names_the_nested_path():
+    with pytest.raises(ConfigError, match=r"^invalid config value at 'trackers\.t\.design'.*"):
+        registry.validate_specs({"t": {"type": "aekf_ar", "design": {"s4": 0.5, "tau0": 0.4, "foo": 1}}}, "c.yaml")
+
+
+def test_build_refuses_a_spec_its_type_would_ignore(config):
+    with pytest.raises(ConfigError, match=r"trackers\.k\.static"):
+        registry.build("k", {"type": "kf", "static": True}, _context(config))
+
+
 def test_config_validation_runs_the_tracker_fragments(config):
     import copy
 
