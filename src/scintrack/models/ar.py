@@ -31,8 +31,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from statsmodels.tsa.ar_model import AutoReg
-from statsmodels.tsa.stattools import pacf
 
 TRENDS = {"amplitude": "c", "phase": "n"}
 
@@ -136,6 +134,8 @@ def fit_ar(x: np.ndarray, order: int, trend: str, hold_back: int | None = None) 
     """
     if order < 1:
         raise ValueError("AR order must be >= 1")
+    from statsmodels.tsa.ar_model import AutoReg  # imported here: heavy, and the AR types are used without it
+
     x = _check_series(x, max(order, hold_back or 0))
     res = AutoReg(x, lags=order, trend=trend, hold_back=hold_back).fit()
     params = np.asarray(res.params, dtype=float)
@@ -155,6 +155,8 @@ def pacf_with_bound(x: np.ndarray, nlags: int, alpha: float = 0.05) -> tuple[np.
     the band half-width is the distance from the estimate to its confidence
     limit, ``z_{1-alpha/2}/sqrt(N)``.
     """
+    from statsmodels.tsa.stattools import pacf
+
     x = _check_series(x, nlags)
     values, confint = pacf(x, nlags=nlags, alpha=alpha, method="ols")
     bound = confint[:, 1] - values

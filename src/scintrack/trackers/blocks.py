@@ -45,6 +45,19 @@ _F8_2 = ["float64(float64, float64)"]
 _F8_3 = ["float64(float64, float64, float64)"]
 
 
+class _Ufunc:
+    """``numba.vectorize(signatures)(py)``, built on first call (keeps imports cheap)."""
+
+    def __init__(self, py, signatures):
+        self.py, self.signatures, self._ufunc = py, signatures, None
+        self.__doc__ = f"Array (ufunc) form of :func:`{py.__name__.lstrip('_')}`."
+
+    def __call__(self, *args):
+        if self._ufunc is None:
+            self._ufunc = vectorize(self.signatures, cache=True)(self.py)
+        return self._ufunc(*args)
+
+
 # --- eq. (12): discriminator variance ---------------------------------------
 
 
@@ -54,7 +67,7 @@ def _atan_variance(cn0_hz, ts):
 
 
 atan_variance = njit(cache=True)(_atan_variance)
-atan_variance_ufunc = vectorize(_F8_2, cache=True)(_atan_variance)
+atan_variance_ufunc = _Ufunc(_atan_variance, _F8_2)
 
 
 # --- ATAN2 discriminator --------------------------------------------------------
@@ -66,7 +79,7 @@ def _atan2_discriminator(yr, yi, phase):
 
 
 atan2_discriminator = njit(cache=True)(_atan2_discriminator)
-atan2_discriminator_ufunc = vectorize(_F8_3, cache=True)(_atan2_discriminator)
+atan2_discriminator_ufunc = _Ufunc(_atan2_discriminator, _F8_3)
 
 
 # --- M2M4 and C/N0 ---------------------------------------------------------------
@@ -78,7 +91,7 @@ def _m2m4_signal_power(m2, m4, floor_fraction):
 
 
 m2m4_signal_power = njit(cache=True)(_m2m4_signal_power)
-m2m4_signal_power_ufunc = vectorize(_F8_3, cache=True)(_m2m4_signal_power)
+m2m4_signal_power_ufunc = _Ufunc(_m2m4_signal_power, _F8_3)
 
 
 @njit(cache=True)
@@ -93,7 +106,7 @@ def _cn0_from_powers(signal_power, noise_power, ts):
 
 
 cn0_from_powers = njit(cache=True)(_cn0_from_powers)
-cn0_from_powers_ufunc = vectorize(_F8_3, cache=True)(_cn0_from_powers)
+cn0_from_powers_ufunc = _Ufunc(_cn0_from_powers, _F8_3)
 
 
 # --- sliding windows and S4 ------------------------------------------------------
@@ -120,7 +133,7 @@ def _window_variance(s1, s2, count):
 
 
 window_variance = njit(cache=True)(_window_variance)
-window_variance_ufunc = vectorize(_F8_3, cache=True)(_window_variance)
+window_variance_ufunc = _Ufunc(_window_variance, _F8_3)
 
 
 @njit(cache=True)
@@ -136,7 +149,7 @@ def _s4_corrected(mean_i, var_i, noise_power):
 
 
 s4_corrected = njit(cache=True)(_s4_corrected)
-s4_corrected_ufunc = vectorize(_F8_3, cache=True)(_s4_corrected)
+s4_corrected_ufunc = _Ufunc(_s4_corrected, _F8_3)
 
 
 @njit(cache=True)
