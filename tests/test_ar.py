@@ -63,3 +63,50 @@ def test_bad_series_are_rejected():
         fit_ar(np.array([1.0, np.nan] * 100), 2, "c")
     with pytest.raises(ValueError, match="too few"):
         fit_ar(np.arange(10.0), 3, "c")
+
+
+def test_one_ar_type_from_fit_to_tracker_and_simulation():
+    """ScintillationAR (the trackers' pair of ArModel) simulates with the one
+    simulator; refitting recovers both models."""
+    from scintrack.models.ar import ArModel, ScintillationAR
+
+    pair = ScintillationAR.from_coefs([0.95], [1.2, -0.3], kappa=0.1, sigma2_theta=1e-3, sigma2_rho=1e-3, s4=0.6)
+    assert isinstance(pair.phase, ArModel) and pair.amplitude.order == 2
+    assert abs(pair.rho_mean - 0.1 / (1 - 0.9)) < 1e-12 and abs(pair.amplitude.mean - pair.rho_mean) < 1e-12
+    theta, rho = pair.simulate(60_000, rng_for(2, "pair", 0), burn=2000)
+    assert abs(rho.mean() - pair.rho_mean) < 0.05
+    ph, am = fit_ar(theta, 1, "n"), fit_ar(rho, 2, "c")
+    np.testing.assert_allclose(ph.coefs, [0.95], atol=0.01)
+    np.testing.assert_allclose(am.coefs, [1.2, -0.3], atol=0.02)
+    assert abs(am.const - 0.1) < 0.01 and abs(am.sigma2 - 1e-3) < 1e-4
+    # same draws as the bare simulator (one generator: phase first, then amplitude)
+    rng = rng_for(2, "pair", 0)
+    th2 = simulate_ar([0.95], 1e-3, 60_000, rng, burn=2000)
+    np.testing.assert_array_equal(theta, th2)
+    assert ScintillationAR.no_scintillation().rho_mean == 1.0  # unit root: the tracker starts at 1
+
+
+def test_lut_lookup_returns_the_one_type():
+    import xarray as xr
+
+    from scintrack.models.ar import ArModel
+    from scintrack.models.lut import lookup, scintillation_ar
+
+    coef = np.zeros((2, 1, 2, 3, 3))
+    coef[:, 0, 0, 2, :3] = [1.8, -0.9, 0.05]
+    coef[0, 0, 1, 1, :2] = [1.9, -0.91]  # S4 = 0.5 (moderate): phase AR(2)
+    coef[1, 0, 1, 0, :1] = [0.99]  # S4 = 0.9 (severe): phase AR(1)
+    lut = xr.Dataset(
+        {
+            "coef": (("s4", "tau0", "component", "order", "lag"), coef),
+            "const": (("s4", "tau0", "component", "order"), np.full((2, 1, 2, 3), 0.05)),
+            "sigma2": (("s4", "tau0", "component", "order"), np.full((2, 1, 2, 3), 1e-3)),
+        },
+        coords={"s4": [0.5, 0.9], "tau0": [0.4], "component": ["amplitude", "phase"], "order": [1, 2, 3], "lag": [1, 2, 3]},
+    )
+    assert isinstance(lookup(lut, 0.5, 0.4, "amplitude", 3), ArModel)
+    severe, moderate = scintillation_ar(lut, 0.8, 0.2), scintillation_ar(lut, 0.45, 0.4)
+    np.testing.assert_array_equal(severe.phase.coefs, [0.99])
+    np.testing.assert_array_equal(moderate.phase.coefs, [1.9, -0.91])
+    assert (severe.s4, severe.tau0, moderate.s4) == (0.9, 0.4, 0.5)
+    np.testing.assert_array_equal(severe.amplitude.coefs, [1.8, -0.9, 0.05])

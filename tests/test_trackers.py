@@ -1,4 +1,5 @@
-"""Trackers: theory at high C/N0, SSM equivalence, slips, batch invariance, robustness."""
+"""Trackers: theory at high C/N0, SSM equivalence, slips, batch invariance, robustness,
+compiled kernels against the textbook numpy references, result labels."""
 
 from __future__ import annotations
 
@@ -13,9 +14,10 @@ from scipy.linalg import solve_discrete_are
 from scintrack.config import load_config
 from scintrack.experiments.metrics import count_cycle_slips, slip_counts, unwrapped_error, wrap
 from scintrack.experiments.runner import run_shard
+from scintrack.models.ar import ScintillationAR
 from scintrack.signals.correlator import complex_noise, noise_power, prompts
 from scintrack.signals.dynamics import third_order_phase
-from scintrack.trackers.aekf_ar import AEKFAR, ArSet
+from scintrack.trackers.aekf_ar import AEKFAR
 from scintrack.trackers.base import TrackInit, atan2_discriminator, atan_variance, dynamics_F, dynamics_Q
 from scintrack.trackers.kf import DiscriminatorKF
 from scintrack.trackers.pll import PLL
@@ -68,7 +70,7 @@ def test_aekf_without_scintillation_matches_riccati():
     cn0 = 10 ** 4.5
     q = 1.0
     s2 = noise_power(45.0, TS)
-    ekf = AEKFAR(ts=TS, q_jerk=q, p0_diag=(0.1, 1.0, 1.0), ar_sets=[ArSet.no_scintillation()], nominal_noise=s2, rho_p0=1e-4)
+    ekf = AEKFAR(ts=TS, q_jerk=q, p0_diag=(0.1, 1.0, 1.0), ar_sets=[ScintillationAR.no_scintillation()], nominal_noise=s2, rho_p0=1e-4)
     e = _clean_run(ekf)
     theory = _kf_steady_var(q, 1 / (2 * cn0 * TS))
     assert abs(np.var(e) / theory - 1) < 0.15, (np.var(e), theory)
@@ -82,7 +84,7 @@ def test_ssm_equivalence_ar13_equals_ar33_with_zero_betas():
     rho = 1 + 0.1 * np.sin(np.arange(k) / 30.0)
     y = prompts(thd + ths, rho, complex_noise(5, "eq", range(n), k, noise_power(30.0, TS)))
     init = TrackInit(phase=np.angle(y[:, 0]), doppler_hz=np.full(n, 50.0), rate_hz_s=np.zeros(n))
-    s = ArSet(beta=np.array([0.99]), gamma=np.array([1.8, -0.9, 0.05]), kappa=0.05, sigma2_theta=4e-4, sigma2_rho=1e-4, s4=0.8)
+    s = ScintillationAR.from_coefs(np.array([0.99]), np.array([1.8, -0.9, 0.05]), kappa=0.05, sigma2_theta=4e-4, sigma2_rho=1e-4, s4=0.8)
     outs = [AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=[s], p_state=p, q_state=3, nominal_noise=0.1).run(y, init).theta_d for p in (1, 2, 3)]
     assert np.max(np.abs(outs[0] - outs[1])) < 1e-8
     assert np.max(np.abs(outs[0] - outs[2])) < 1e-8
@@ -161,32 +163,67 @@ def test_no_tracker_returns_nan_at_10_dbhz_and_s4_1_2(config):
     assert np.all(np.isfinite(res["sq_sum"].values))
 
 
-def test_compiled_kernels_match_numpy_references():
+def test_compiled_kernels_match_textbook_references():
+    """Kernel (closed-form blocks) against the textbook numpy filter (explicit F, Q, H,
+    S = H P H^T + R, K = P H^T S^-1 by numpy.linalg, P = (I - K H) P) over 3000 epochs.
+
+    Tolerance: theta_d is the absolute carrier phase (up to ~3e5 rad after 30 s
+    at 50 Hz + 100 Hz/s), and the two derivations differ only by rounding
+    (observed: <= 4e-14 relative, 1e-8 rad absolute), so rtol = 1e-10 leaves
+    four orders of margin while any algebra error (a wrong Jacobian entry, a
+    missing kappa, a transposed gain) gives O(1e-3..1) differences.  The S4
+    estimate differs by up to ~6e-9 (the window re-sum is numpy pairwise in one,
+    sequential in the other; near S4 = 0 the square root amplifies ulps), hence
+    atol = 1e-7 there; the AR-set index must be identical.
+    """
     from scintrack.experiments.metrics import count_cycle_slips_numpy
 
     rng = np.random.default_rng(9)
-    n, k = 6, 1200
+    n, k = 6, 3000
     thd = third_order_phase(rng.uniform(-np.pi, np.pi, n), k, TS, 50.0, 100.0)
     ths = np.cumsum(rng.normal(0, 0.03, (n, k)), axis=1)
     rho = np.abs(1 + 0.4 * np.sin(np.arange(k) / 25.0))
     y = prompts(thd + ths, rho, complex_noise(5, "ref", range(n), k, noise_power(27.0, TS)))
     init = TrackInit(phase=np.angle(y[:, 0]), doppler_hz=np.full(n, 50.0), rate_hz_s=np.zeros(n))
-    sets = [ArSet.no_scintillation(), ArSet(beta=np.array([1.9, -0.91]), gamma=np.array([1.8, -0.9, 0.05]), kappa=0.05, sigma2_theta=4e-4, sigma2_rho=1e-4, s4=0.5),
-            ArSet(beta=np.array([0.99]), gamma=np.array([1.8, -0.9, 0.05]), kappa=0.05, sigma2_theta=4e-4, sigma2_rho=1e-4, s4=0.9)]
+    gamma = np.array([1.8, -0.9, 0.05])
+    sets = [ScintillationAR.no_scintillation(), ScintillationAR.from_coefs([1.9, -0.91], gamma, 0.05, 4e-4, 1e-4, s4=0.5),
+            ScintillationAR.from_coefs([0.99], gamma, 0.05, 4e-4, 1e-4, s4=0.9)]
     trackers = [
         PLL(ts=TS, bandwidth_hz=10.0),
         DiscriminatorKF(ts=TS, q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4)),
+        DiscriminatorKF(ts=TS, q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4), adaptive_r=True),
         DiscriminatorKF(ts=TS, q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4), adaptive_r=True, ar_coefs=np.array([0.99]), ar_sigma2=4e-4),
-        AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=sets, adaptive=True, nominal_noise=0.2, s4_window=300, s4_min_epochs=100, adapt_hold=50, record=("s4_hat", "ar_set")),
+        AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=sets, adaptive=True, nominal_noise=0.2, s4_window=300, s4_min_epochs=100, adapt_hold=50,
+               record=("s4_hat", "ar_set", "theta_s", "rho_s")),
         AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=sets[1:2], nominal_noise=0.2, fold_mirror=True, record=("rho_s", "theta_s")),
+        AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=sets[2:], p_state=1, q_state=3, nominal_noise=0.2, record=("rho_s",)),
     ]
+    tol = {"s4_hat": dict(rtol=1e-6, atol=1e-7), "ar_set": dict(rtol=0, atol=0), "R": dict(rtol=1e-10, atol=0), "theta_s": dict(rtol=0, atol=1e-8), "rho_s": dict(rtol=0, atol=1e-8)}
     for tr in trackers:
-        fast, ref = tr.run(y, init), tr.run_numpy(y, init)
-        np.testing.assert_allclose(fast.theta_d, ref.theta_d, atol=1e-7, err_msg=type(tr).__name__)
+        fast, ref = tr.run(y, init), tr.reference(y, init)
+        np.testing.assert_allclose(fast.theta_d, ref.theta_d, rtol=1e-10, atol=1e-9, err_msg=type(tr).__name__)
+        assert set(fast.extras) == set(ref.extras)
         for key in fast.extras:
-            np.testing.assert_allclose(fast.extras[key], ref.extras[key], atol=1e-7)
+            np.testing.assert_allclose(fast.extras[key], ref.extras[key], err_msg=f"{type(tr).__name__} {key}", **tol[key])
+    switched = trackers[4].run(y, init).extras["ar_set"]
+    assert len(np.unique(switched)) > 1  # the adaptive filter did switch sets
     e = unwrapped_error(trackers[0].run(y, init).theta_d, thd)
     np.testing.assert_array_equal(count_cycle_slips(e), count_cycle_slips_numpy(e))
+
+
+def test_reference_catches_a_wrong_model():
+    """The reference is an independent derivation: a kernel fed a different
+    model (here a wrong kappa) is caught by the same tolerance."""
+    rng = np.random.default_rng(2)
+    n, k = 3, 800
+    thd = third_order_phase(rng.uniform(-np.pi, np.pi, n), k, TS, 50.0, 100.0)
+    y = prompts(thd, 1.0, complex_noise(1, "wrong", range(n), k, noise_power(30.0, TS)))
+    init = TrackInit(phase=np.angle(y[:, 0]), doppler_hz=np.full(n, 50.0), rate_hz_s=np.zeros(n))
+    kw = dict(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), nominal_noise=0.1)
+    good = AEKFAR(ar_sets=[ScintillationAR.from_coefs([0.99], [0.9], 0.1, 1e-4, 1e-3)], **kw)
+    bad = AEKFAR(ar_sets=[ScintillationAR.from_coefs([0.99], [0.9], 0.12, 1e-4, 1e-3)], **kw)
+    with pytest.raises(AssertionError):
+        np.testing.assert_allclose(bad.run(y, init).theta_d, good.reference(y, init).theta_d, rtol=1e-10, atol=1e-9)
 
 
 def test_shards_merge_exactly(config):
@@ -206,7 +243,7 @@ def test_mirror_fold_keeps_rho_positive_and_changes_nothing_in_lock():
     rng = np.random.default_rng(4)
     n, k = 4, 3000
     thd = third_order_phase(rng.uniform(-np.pi, np.pi, n), k, TS, 50.0, 100.0)
-    s = ArSet(beta=np.array([0.995]), gamma=np.array([1.9, -0.95, 0.0]), kappa=0.05, sigma2_theta=1e-3, sigma2_rho=2e-3, s4=0.8)
+    s = ScintillationAR.from_coefs(np.array([0.995]), np.array([1.9, -0.95, 0.0]), kappa=0.05, sigma2_theta=1e-3, sigma2_rho=2e-3, s4=0.8)
     init = lambda y: TrackInit(phase=np.angle(y[:, 0]), doppler_hz=np.full(n, 50.0), rate_hz_s=np.zeros(n))  # noqa: E731
     kw = dict(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=[s], nominal_noise=0.1, record=("rho_s",))
     fading = np.abs(np.sin(np.arange(k) / 60.0)) + 1e-3  # through zero every ~1.9 s
@@ -218,3 +255,17 @@ def test_mirror_fold_keeps_rho_positive_and_changes_nothing_in_lock():
     steady = np.ones(k)
     y2 = prompts(thd, steady, complex_noise(7, "fold2", range(n), k, noise_power(45.0, TS)))
     np.testing.assert_array_equal(AEKFAR(**kw).run(y2, init(y2)).theta_d, AEKFAR(**kw, fold_mirror=True).run(y2, init(y2)).theta_d)
+
+
+def test_shard_carries_tracker_labels_as_an_attribute_only(config):
+    import json
+
+    from scintrack.io import content_hash
+
+    ds = _shard(config, range(2), "s4_0.8_tau0_0.2", duration=1.5)
+    labels = json.loads(ds.attrs["tracker_labels"])
+    assert labels == {"pll": "PLL", "kf": "KF", "akf": "AKF", "akf_ar": "AKF-AR", "aekf_ar": "AEKF-AR"}
+    assert "tracker_labels" not in ds.variables
+    stripped = ds.copy()
+    del stripped.attrs["tracker_labels"]
+    assert content_hash(ds) == content_hash(stripped)

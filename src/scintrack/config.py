@@ -105,6 +105,9 @@ def validate_config(config: Mapping[str, Any], schema_path: str | Path, source: 
 
 def check_consistency(config: Mapping[str, Any], source: str = "config/config.yaml") -> None:
     """Rules the schema cannot express (references between keys)."""
+    from .trackers.registry import validate_specs
+
+    validate_specs(config["trackers"], source)
     grid_s4 = set(config["ar_training"]["s4"])
     grid_tau0 = set(config["ar_training"]["tau0"])
     vv = config["figures"]["vila_valls_2018"]

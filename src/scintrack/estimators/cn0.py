@@ -10,13 +10,16 @@ This is the estimator of GNSS-SDR's ``cn0_m2m4_estimator`` (reference notes
 Under scintillation the "signal power" is ``A^2 rho^2`` averaged over the
 window, which is what an adaptive R should follow.  When ``2 m2^2 < m4``
 (a deep fade or too few samples) the signal power is floored at
-``floor_fraction * m2``.
+``floor_fraction * m2``.  The scalar formulas live once, as numba blocks in
+:mod:`scintrack.trackers.blocks` (the trackers' kernels use them); the
+functions here are their vectorised (ufunc) forms.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..trackers import blocks
 from .window import SlidingSums
 
 
@@ -29,22 +32,18 @@ def m2m4(prompts: np.ndarray, axis: int = -1, floor_fraction: float = 1e-3) -> t
 
 
 def _split(m2: np.ndarray, m4: np.ndarray, floor_fraction: float) -> tuple[np.ndarray, np.ndarray]:
-    pd = np.sqrt(np.maximum(2.0 * m2**2 - m4, (floor_fraction * m2) ** 2))
-    pd = np.minimum(pd, (1.0 - floor_fraction) * m2)
+    """Array form of :func:`scintrack.trackers.blocks.m2m4_split`."""
+    pd = blocks.m2m4_signal_power_ufunc(m2, m4, float(floor_fraction))
     return pd, m2 - pd
 
 
 def cn0_from_powers(signal_power: np.ndarray, noise_power: np.ndarray, ts: float) -> np.ndarray:
-    """C/N0 in linear Hz."""
-    return signal_power / (noise_power * ts)
+    """C/N0 in linear Hz (:func:`scintrack.trackers.blocks.cn0_from_powers`)."""
+    return blocks.cn0_from_powers_ufunc(signal_power, noise_power, float(ts))
 
 
 def to_dbhz(cn0: np.ndarray) -> np.ndarray:
     return 10.0 * np.log10(cn0)
-
-
-def from_dbhz(cn0_dbhz: float | np.ndarray) -> np.ndarray:
-    return 10.0 ** (np.asarray(cn0_dbhz, dtype=float) / 10.0)
 
 
 class StreamingM2M4:

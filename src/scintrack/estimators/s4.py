@@ -1,6 +1,17 @@
-"""On-line S4 estimate from the prompt intensity, corrected for thermal noise.
+"""Every S4 computation of the package (one module).
 
-With ``I = |P|^2``, ``P = A rho e^{j theta} + n`` and ``n ~ CN(0, s2)``
+The amplitude scintillation index ``S4^2 = Var[I] / E[I]^2`` of the intensity
+``I = |P|^2``:
+
+* :func:`s4_index`: raw moments of ``|z|^2`` over an axis (no noise, no
+  detrending), e.g. of a CSM realisation;
+* :func:`window_s4`: ``std(I) / mean(I)`` over consecutive non-overlapping
+  windows (the phase-screen surrogate's calibration target);
+* :func:`s4_corrected` / :func:`s4_batch`: noise-corrected S4 from the prompt
+  intensity moments; :class:`StreamingS4`: the same over a sliding window,
+  per trial, as the AEKF-AR's kernel computes it on line.
+
+Noise correction.  With ``P = A rho e^{j theta} + n`` and ``n ~ CN(0, s2)``
 independent of the scintillation:
 
 * ``E[I] = S + s2`` with ``S = A^2 E[rho^2]``;
@@ -9,28 +20,47 @@ independent of the scintillation:
 So ``S4^2 = Var[rho^2]/E[rho^2]^2 = (Var[I] - 2 S s2 - s2^2) / S^2`` with
 ``S = E[I] - s2``.  The noise power ``s2`` comes from the M2M4 estimator
 (:mod:`scintrack.estimators.cn0`) over a longer window, or is given.
-Moments are taken over a sliding window of the last ``window`` epochs, with no
-detrending (the tracker's input has no slow power trend in our scenarios).
-This is the estimator the AEKF-AR uses to adapt (Vila-Valls 2018, Sec. V-B);
-the paper cites [65] without giving one.
+Streaming moments are taken over a sliding window of the last ``window``
+epochs, with no detrending (the tracker's input has no slow power trend in our
+scenarios).  This is the estimator the AEKF-AR uses to adapt (Vila-Valls
+2018, Sec. V-B); the paper cites [65] without giving one.  The scalar formulas
+are the numba blocks :func:`scintrack.trackers.blocks.s4_corrected` and
+:func:`~scintrack.trackers.blocks.window_variance`; the functions here are
+their array forms.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..trackers import blocks
 from .window import SlidingSums
 
 
-def s4_corrected(mean_i: np.ndarray, var_i: np.ndarray, noise_power: np.ndarray) -> np.ndarray:
-    signal = np.maximum(mean_i - noise_power, 1e-12)
-    s4sq = (var_i - 2.0 * signal * noise_power - noise_power**2) / signal**2
-    return np.sqrt(np.clip(s4sq, 0.0, None))
+def s4_corrected(mean_i: np.ndarray, var_i: np.ndarray, noise_power: np.ndarray | float) -> np.ndarray:
+    """Noise-corrected S4 from the intensity mean and variance (:func:`.blocks.s4_corrected`)."""
+    return blocks.s4_corrected_ufunc(np.asarray(mean_i, dtype=float), np.asarray(var_i, dtype=float), np.asarray(noise_power, dtype=float))
 
 
 def s4_batch(prompts: np.ndarray, noise_power: float | np.ndarray, axis: int = -1) -> np.ndarray:
+    """Noise-corrected S4 of prompts along ``axis`` (``noise_power = 0``: no correction)."""
     intensity = np.abs(prompts) ** 2
     return s4_corrected(intensity.mean(axis=axis), intensity.var(axis=axis), np.asarray(noise_power))
+
+
+def s4_index(z: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Empirical S4 of the intensity ``|z|^2`` from its raw moments (no detrending, no noise)."""
+    intensity = np.abs(z) ** 2
+    m1 = intensity.mean(axis=axis)
+    m2 = (intensity**2).mean(axis=axis)
+    return s4_corrected(m1, np.maximum(m2 - m1**2, 0.0), 0.0)
+
+
+def window_s4(intensity: np.ndarray, per_window: int) -> np.ndarray:
+    """S4 = std(I)/mean(I) over consecutive non-overlapping windows of ``per_window`` samples."""
+    m = intensity.size // per_window
+    blocks_ = intensity[: m * per_window].reshape(m, per_window)
+    return blocks_.std(axis=1) / blocks_.mean(axis=1)
 
 
 class StreamingS4:
@@ -47,5 +77,5 @@ class StreamingS4:
         if count < self.min_epochs:
             return self.prior
         mean = sums[:, 0] / count
-        var = np.maximum(sums[:, 1] / count - mean**2, 0.0)
+        var = blocks.window_variance_ufunc(sums[:, 0], sums[:, 1], float(count))
         return s4_corrected(mean, var, noise_power)

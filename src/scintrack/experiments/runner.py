@@ -12,6 +12,10 @@ separate jobs (or on a cluster) and be combined exactly by :func:`merge`:
 * ``example_error`` (tracker, time): the unwrapped error of the shard's first
   trial (Fig. 16 shows one realisation);
 * ``s4_true`` (time) and, for adaptive trackers, ``s4_hat_mean`` (tracker, time).
+
+Trackers are built through :mod:`scintrack.trackers.registry`; their labels go
+into the dataset attribute ``tracker_labels`` (canonical JSON ``{name: label}``;
+an attribute, so the content hash of the results does not depend on them).
 """
 
 from __future__ import annotations
@@ -22,9 +26,11 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .factory import acquisition, build
+from ..io import canonical_json
+from ..trackers import registry
+from ..trackers.base import TrackerContext
 from .metrics import rmse_with_ci, slip_counts, steady_rmse, unwrapped_error, wrap
-from .scenario import simulate
+from .scenario import acquisition, simulate
 
 KINDS = ("wrapped", "unwrapped")
 
@@ -62,8 +68,9 @@ def run_shard(
     events = np.zeros_like(slips)
     example = np.zeros((nt, n_epochs))
     s4_hat = np.full((nt, n_epochs), np.nan)
+    context = TrackerContext(scenario=scenario, tracking=tracking, lut=lut, ts=ts, trace_set=trace_set)
     for j, name in enumerate(tracker_names):
-        tracker = build(name, tracker_specs[name], scenario, tracking, lut, ts, trace_set)
+        tracker = registry.build(name, tracker_specs[name], context)
         if hasattr(tracker, "record") and getattr(tracker, "adaptive", False):
             tracker.record = ("s4_hat",)
         out = tracker.run(real.y, init)
@@ -104,9 +111,15 @@ def run_shard(
             "steady_state_start_s": float(tracking["steady_state_start_s"]),
             "slip_hysteresis_rad": hyst,
             "slip_settle_s": float(tracking["slip_settle_s"]),
+            "tracker_labels": tracker_labels(tracker_names, tracker_specs),
         }
     )
     return ds
+
+
+def tracker_labels(names: Sequence[str], specs: Mapping[str, Mapping[str, Any]]) -> str:
+    """Canonical JSON ``{name: plain-text label}`` (the ``tracker_labels`` attribute of results)."""
+    return canonical_json({name: registry.label(name, specs[name]) for name in names})
 
 
 def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:

@@ -1,6 +1,7 @@
 """Scenarios as data: scintillation profile, C/N0 and dynamics -> truth and prompts.
 
-A scenario is a config entry::
+A scenario is a config entry (with the common ``tracking`` settings: C/N0,
+amplitude, f_d0, f_r; and the sampling period Ts)::
 
     s4_0.9_tau0_0.1: {duration_s: 60, segments: [{start_s: 0, s4: 0.9, tau0: 0.1}]}
     free:            {duration_s: 60, segments: []}        # no scintillation
@@ -9,10 +10,10 @@ A scenario is a config entry::
 ``scintillation_model: ar`` draws the scintillation from the fitted AR models
 instead of the CSM (an isolating experiment: the AEKF-AR's model is exact).
 A recorded (real or surrogate) trace is passed to :func:`simulate` as
-``trace=(rho, theta)``, its phase already referenced by the caller; ``dynamics=False`` gives the static, dynamics-free
-case of Sec. VI-E2 (theta_d = 0).
+``trace=(rho, theta)``, its phase already referenced by the caller;
+``dynamics=False`` gives the static, dynamics-free case of Sec. VI-E2
+(theta_d = 0).  :func:`acquisition` gives the trackers' initial values.
 
-with the common ``tracking`` settings (C/N0, amplitude, f_d0, f_r, Ts).
 :func:`simulate` draws, for a list of trial indices, the initial phase, the
 CSM scintillation and the thermal noise from independent seed streams named
 after the scenario, so trial k is identical whichever shard or experiment
@@ -27,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from ..models.ar import ScintillationAR
+from ..models.lut import scintillation_ar
 from ..signals.correlator import complex_noise, noise_power, prompts
 from ..signals.csm import Segment, generate_csm, generate_csm_profile
 from ..signals.dynamics import initial_phases, third_order_phase
@@ -55,28 +58,37 @@ def segments_of(scenario: Mapping[str, Any]) -> list[Segment]:
     return [Segment(float(s["start_s"]), float(s["s4"]), float(s["tau0"])) for s in scenario.get("segments", [])]
 
 
-def ar_scintillation(seed: int, name: str, trials: np.ndarray, n_epochs: int, ar_set, burn: int = 2000) -> tuple[np.ndarray, np.ndarray]:
+def ar_scintillation(seed: int, name: str, trials: np.ndarray, n_epochs: int, model: ScintillationAR, burn: int = 2000) -> tuple[np.ndarray, np.ndarray]:
     """Scintillation drawn from the fitted AR models themselves (isolating experiment).
 
     ``theta_s`` from AR(p) (eq. 9) and ``rho_s`` from AR(q) with constant
-    kappa (eq. 10), exactly the model the AEKF-AR assumes.
+    kappa (eq. 10), exactly the model the AEKF-AR assumes
+    (:meth:`~scintrack.models.ar.ScintillationAR.simulate`), one seed stream per trial.
     """
-    from scipy import signal
-
     from ..seeding import rng_for
 
     theta = np.empty((trials.size, n_epochs))
     rho = np.empty((trials.size, n_epochs))
-    a_th = np.concatenate([[1.0], -np.asarray(ar_set.beta)])
-    a_rho = np.concatenate([[1.0], -np.asarray(ar_set.gamma)])
     for row, trial in enumerate(trials):
-        rng = rng_for(seed, name, int(trial))
-        e_th = rng.normal(0.0, np.sqrt(ar_set.sigma2_theta), n_epochs + burn)
-        e_rho = rng.normal(ar_set.kappa, np.sqrt(ar_set.sigma2_rho), n_epochs + burn)
-        zi = signal.lfilter_zi([1.0], a_rho) * ar_set.rho_mean
-        theta[row] = signal.lfilter([1.0], a_th, e_th)[burn:]
-        rho[row] = signal.lfilter([1.0], a_rho, e_rho, zi=zi)[0][burn:]
+        theta[row], rho[row] = model.simulate(n_epochs, rng_for(seed, name, int(trial)), burn=burn)
     return theta, rho
+
+
+def acquisition(real: Realisation, tracking: Mapping[str, Any], static: bool = False):
+    """Initial values every tracker gets: phase of the first prompt, nominal Doppler, zero rate.
+
+    ``static``: the dynamics are known to be zero (phase, Doppler and rate 0).
+    """
+    from ..trackers.base import TrackInit
+
+    n = real.y.shape[0]
+    if static:
+        return TrackInit(phase=np.zeros(n), doppler_hz=np.zeros(n), rate_hz_s=np.zeros(n))
+    return TrackInit(
+        phase=np.angle(real.y[:, 0]),
+        doppler_hz=np.full(n, float(tracking["fd0_hz"])),
+        rate_hz_s=np.zeros(n),
+    )
 
 
 def simulate(
@@ -108,11 +120,9 @@ def simulate(
         s4_t = np.zeros(n_epochs)
         tau0_t = np.full(n_epochs, np.nan)
     elif scenario.get("scintillation_model", "csm") == "ar":
-        from .factory import ar_set
-
         if len(segs) != 1 or lut is None:
             raise ValueError(f"scenario {name!r}: an AR scintillation model needs one segment and the AR look-up table")
-        theta_s, rho = ar_scintillation(seed, f"scenario/{name}/ar", trials, n_epochs, ar_set(lut, segs[0].s4, segs[0].tau0))
+        theta_s, rho = ar_scintillation(seed, f"scenario/{name}/ar", trials, n_epochs, scintillation_ar(lut, segs[0].s4, segs[0].tau0))
         s4_t, tau0_t = np.full(n_epochs, segs[0].s4), np.full(n_epochs, segs[0].tau0)
     elif len(segs) == 1:
         z = generate_csm(seed=seed, name=f"scenario/{name}/csm", trials=trials, n_epochs=n_epochs, ts=ts, s4=segs[0].s4, tau0=segs[0].tau0, nspa=nspa, warmup=warmup).z

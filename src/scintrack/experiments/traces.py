@@ -32,13 +32,14 @@ import numpy as np
 import xarray as xr
 
 from ..estimators.s4 import s4_batch
-from ..models.ar import fit_ar, pacf_with_bound
+from ..models.ar import ArModel, ScintillationAR, fit_ar, pacf_with_bound
+from ..models.lut import AMPLITUDE_ORDER, TABLE_I_PHASE_ORDER
 from ..models.regions import region_of
-from ..trackers.aekf_ar import ArSet
-from .factory import AMPLITUDE_ORDER, TABLE_I_PHASE_ORDER, acquisition, build
+from ..trackers import registry
+from ..trackers.base import TrackerContext
 from .metrics import mean_with_ci, wrap
-from .runner import run_shard
-from .scenario import simulate
+from .runner import run_shard, tracker_labels
+from .scenario import acquisition, simulate
 
 MAX_LAGS = 3
 
@@ -81,12 +82,14 @@ def fit_trace_models(ds: xr.Dataset, *, fit_s: float, ts: float) -> xr.Dataset:
     )
 
 
-def trace_ar_set(models: xr.Dataset, band: str) -> ArSet:
+def trace_ar_set(models: xr.Dataset, band: str) -> ScintillationAR:
+    """The phase/amplitude AR models of one band, as the trackers use them."""
     m = models.sel(band=band)
     p = int(m["phase_order"])
-    return ArSet(
-        beta=m["beta"].values[:p].copy(), gamma=m["gamma"].values[:AMPLITUDE_ORDER].copy(), kappa=float(m["kappa"]),
-        sigma2_theta=float(m["sigma2_theta"]), sigma2_rho=float(m["sigma2_rho"]), s4=float(m["s4_fit"]),
+    return ScintillationAR(
+        phase=ArModel(m["beta"].values[:p].copy(), 0.0, float(m["sigma2_theta"])),
+        amplitude=ArModel(m["gamma"].values[:AMPLITUDE_ORDER].copy(), float(m["kappa"]), float(m["sigma2_rho"])),
+        s4=float(m["s4_fit"]),
         label=f"{models.attrs['event']} {band}: AR({p})/AR(3) fitted on the first {models.attrs['fit_s']:g} s",
     )
 
@@ -162,7 +165,8 @@ def static_experiment(
     for j, band in enumerate(bands):
         trace = segment(ds, band, fit_s, eval_s, ts)
         real = simulate(f"trace/{event}/{band}/static", scenario, tracking, seed=seed, ts=ts, nspa=1, warmup_s=0.0, trials=trials, trace=trace, dynamics=False)
-        tracker = build(tracker_name, tracker_spec, scenario, tracking, None, ts, trace_ar_set(models, band))
+        context = TrackerContext(scenario=scenario, tracking=tracking, lut=None, ts=ts, trace_set=trace_ar_set(models, band))
+        tracker = registry.build(tracker_name, tracker_spec, context)
         tracker.record = ("theta_s", "rho_s")
         out = tracker.run(real.y, acquisition(real, tracking, static=True))
         theta_hat = out.theta_d + out.extras["theta_s"]  # theta_d stays 0: the scintillation phase estimate
@@ -183,7 +187,8 @@ def static_experiment(
         data[f"example_{k}"] = (("band", "time"), v)
     return xr.Dataset(
         data, coords={"band": bands, "trial": np.asarray(list(trials)), "time": ("time", np.arange(n) * ts, {"units": "s"})},
-        attrs={"event": event, "source": ds.attrs["source"], "fit_s": fit_s, "eval_s": eval_s, "cn0_dbhz": float(tracking["cn0_dbhz"])},
+        attrs={"event": event, "source": ds.attrs["source"], "fit_s": fit_s, "eval_s": eval_s, "cn0_dbhz": float(tracking["cn0_dbhz"]),
+               "tracker_labels": tracker_labels([tracker_name], {tracker_name: tracker_spec})},
     )
 
 
@@ -207,5 +212,6 @@ def dynamics_experiment(
         )
         per_band.append(merge([shard]).drop_vars(["s4_true", "tau0_true"]))
     out = xr.concat(per_band, dim=xr.DataArray(bands, dims="band", name="band"), coords="minimal", compat="override")
-    out.attrs.update({"event": event, "source": ds.attrs["source"], "fit_s": fit_s, "eval_s": eval_s, "rmse_start_s": rmse_start_s})
+    out.attrs.update({"event": event, "source": ds.attrs["source"], "fit_s": fit_s, "eval_s": eval_s, "rmse_start_s": rmse_start_s,
+                      "tracker_labels": tracker_labels(list(tracker_names), tracker_specs)})
     return out

@@ -18,6 +18,12 @@ of the initial run of lags whose partial autocorrelation lies outside the 95%
 band ``+-z_{0.975}/sqrt(N)`` that statsmodels returns (i.e. the first lag
 *inside* the band, minus one).  AIC and BIC orders minimise statsmodels' own
 AutoReg AIC/BIC over AR(1..max_order) fitted on a common sample.
+
+Types: :class:`ArModel` is the package's one AR type (fits, look-up-table
+points, trace fits); :class:`ScintillationAR` pairs a phase and an amplitude
+model as the AR-based trackers use them (eqs. 9-10).  :func:`simulate_ar` is
+the one AR simulator (``scipy.signal.lfilter``), used by the AR-world
+scenarios and the tests.
 """
 
 from __future__ import annotations
@@ -25,31 +31,88 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from statsmodels.tsa.ar_model import AutoReg
-from statsmodels.tsa.stattools import pacf
 
 TRENDS = {"amplitude": "c", "phase": "n"}
 
 
 @dataclass(frozen=True)
-class ArFit:
-    """One fitted AR model: ``x_k = sum coefs[i] x_{k-1-i} + const + e_k``."""
+class ArModel:
+    """One AR model: ``x_k = sum coefs[i] x_{k-1-i} + const + e_k``, ``e_k ~ N(0, sigma2)``.
+
+    The one AR type of the package: fits (:func:`fit_ar`, with their AIC/BIC),
+    look-up-table points (:func:`scintrack.models.lut.lookup`), trace fits and
+    the trackers' models (in pairs, :class:`ScintillationAR`) all use it.
+    """
 
     coefs: np.ndarray
-    const: float
-    sigma2: float
-    aic: float
-    bic: float
+    const: float = 0.0
+    sigma2: float = 0.0
+    aic: float = float("nan")
+    bic: float = float("nan")
 
     @property
     def order(self) -> int:
-        return int(self.coefs.size)
+        return int(np.size(self.coefs))
 
     @property
     def mean(self) -> float:
         """Process mean ``kappa / (1 - sum gamma_i)`` (nan for a unit root)."""
         denom = 1.0 - float(np.sum(self.coefs))
         return self.const / denom if abs(denom) > 1e-12 else float("nan")
+
+    def simulate(self, n: int, rng: np.random.Generator, burn: int = 1000, start: float | None = None) -> np.ndarray:
+        """``n`` samples of the process (:func:`simulate_ar`)."""
+        return simulate_ar(self.coefs, self.sigma2, n, rng, const=self.const, burn=burn, start=start)
+
+
+@dataclass(frozen=True)
+class ScintillationAR:
+    """The scintillation model of the AR-based trackers (Vila-Valls 2018, eqs. 9-10).
+
+    ``phase``: AR(p) of theta_s without constant (coefficients beta_i,
+    sigma_eta_theta^2); ``amplitude``: AR(q) of rho_s with constant kappa
+    (gamma_i, sigma_eta_rho^2).  ``s4``/``tau0``: the point the models belong
+    to (look-up-table grid point, trace fit), ``label``: where they come from.
+    """
+
+    phase: ArModel
+    amplitude: ArModel
+    s4: float = 0.0
+    tau0: float = float("nan")
+    label: str = ""
+
+    @staticmethod
+    def no_scintillation() -> ScintillationAR:
+        """SSM #1 as in Case I: gamma_1 = 1, everything else 0."""
+        return ScintillationAR(phase=ArModel(np.zeros(1)), amplitude=ArModel(np.array([1.0])), s4=0.0, label="none")
+
+    @staticmethod
+    def from_coefs(beta, gamma, kappa: float, sigma2_theta: float, sigma2_rho: float, s4: float = 0.0, tau0: float = float("nan"), label: str = "") -> ScintillationAR:
+        """Shorthand: phase AR(beta, sigma2_theta), amplitude AR(gamma, kappa, sigma2_rho)."""
+        return ScintillationAR(
+            phase=ArModel(np.asarray(beta, dtype=float), 0.0, float(sigma2_theta)),
+            amplitude=ArModel(np.asarray(gamma, dtype=float), float(kappa), float(sigma2_rho)),
+            s4=float(s4), tau0=float(tau0), label=label,
+        )
+
+    @property
+    def rho_mean(self) -> float:
+        """Mean amplitude, the trackers' initial rho_s (1 when the amplitude AR has a unit root)."""
+        denom = 1.0 - float(np.sum(self.amplitude.coefs))
+        return self.amplitude.const / denom if abs(denom) > 1e-9 else 1.0
+
+    def simulate(self, n: int, rng: np.random.Generator, burn: int = 2000) -> tuple[np.ndarray, np.ndarray]:
+        """(theta_s, rho_s) drawn from the models themselves, phase first, one generator.
+
+        The amplitude filter starts from ``lfilter_zi * rho_mean`` (as the
+        original isolating experiment did; that is the steady state of an input
+        ``rho_mean``, not ``kappa``, so the output starts at ``rho_mean / (1 -
+        sum gamma)``); the ``burn`` samples remove that transient.  Kept as is:
+        the results stay bit-identical.
+        """
+        theta = self.phase.simulate(n, rng, burn=burn)
+        rho = self.amplitude.simulate(n, rng, burn=burn, start=self.rho_mean)
+        return theta, rho
 
 
 def _check_series(x: np.ndarray, order: int) -> np.ndarray:
@@ -63,7 +126,7 @@ def _check_series(x: np.ndarray, order: int) -> np.ndarray:
     return x
 
 
-def fit_ar(x: np.ndarray, order: int, trend: str, hold_back: int | None = None) -> ArFit:
+def fit_ar(x: np.ndarray, order: int, trend: str, hold_back: int | None = None) -> ArModel:
     """Fit AR(``order``) by conditional ML (OLS) with statsmodels' ``AutoReg``.
 
     ``hold_back`` (>= order) drops that many initial observations, so that fits
@@ -71,6 +134,8 @@ def fit_ar(x: np.ndarray, order: int, trend: str, hold_back: int | None = None) 
     """
     if order < 1:
         raise ValueError("AR order must be >= 1")
+    from statsmodels.tsa.ar_model import AutoReg  # imported here: heavy, and the AR types are used without it
+
     x = _check_series(x, max(order, hold_back or 0))
     res = AutoReg(x, lags=order, trend=trend, hold_back=hold_back).fit()
     params = np.asarray(res.params, dtype=float)
@@ -80,7 +145,7 @@ def fit_ar(x: np.ndarray, order: int, trend: str, hold_back: int | None = None) 
         const, coefs = 0.0, params
     else:
         raise ValueError(f"trend must be 'c' or 'n', got {trend!r}")
-    return ArFit(coefs=coefs.copy(), const=const, sigma2=float(res.sigma2), aic=float(res.aic), bic=float(res.bic))
+    return ArModel(coefs=coefs.copy(), const=const, sigma2=float(res.sigma2), aic=float(res.aic), bic=float(res.bic))
 
 
 def pacf_with_bound(x: np.ndarray, nlags: int, alpha: float = 0.05) -> tuple[np.ndarray, np.ndarray]:
@@ -90,6 +155,8 @@ def pacf_with_bound(x: np.ndarray, nlags: int, alpha: float = 0.05) -> tuple[np.
     the band half-width is the distance from the estimate to its confidence
     limit, ``z_{1-alpha/2}/sqrt(N)``.
     """
+    from statsmodels.tsa.stattools import pacf
+
     x = _check_series(x, nlags)
     values, confint = pacf(x, nlags=nlags, alpha=alpha, method="ols")
     bound = confint[:, 1] - values
@@ -108,12 +175,12 @@ def pacf_order(values: np.ndarray, bound: np.ndarray) -> int:
     return int(np.argmax(inside))
 
 
-def fit_orders(x: np.ndarray, max_order: int, trend: str) -> list[ArFit]:
+def fit_orders(x: np.ndarray, max_order: int, trend: str) -> list[ArModel]:
     """AR(1..max_order) fitted on one common sample (``hold_back=max_order``)."""
     return [fit_ar(x, order, trend, hold_back=max_order) for order in range(1, max_order + 1)]
 
 
-def ic_order(fits: list[ArFit], ic: str) -> int:
+def ic_order(fits: list[ArModel], ic: str) -> int:
     """Order minimising ``ic`` ("aic" or "bic") among fits from :func:`fit_orders`.
 
     Same criterion as ``statsmodels.tsa.ar_model.ar_select_order`` (which
@@ -140,10 +207,20 @@ def ar_psd(coefs: np.ndarray, sigma2: float, freqs: np.ndarray, fs: float) -> np
     return 2.0 * sigma2 / fs * np.abs(h) ** 2
 
 
-def simulate_ar(coefs: np.ndarray, sigma2: float, n: int, rng: np.random.Generator, const: float = 0.0, burn: int = 1000) -> np.ndarray:
-    """Simulate an AR process with ``scipy.signal.lfilter`` (used in tests)."""
+def simulate_ar(
+    coefs: np.ndarray, sigma2: float, n: int, rng: np.random.Generator, const: float = 0.0, burn: int = 1000, start: float | None = None
+) -> np.ndarray:
+    """Simulate an AR process with ``scipy.signal.lfilter`` (the package's one AR simulator).
+
+    ``e_k ~ N(0, sigma2) + const`` filtered by ``1 / (1 - sum a_i z^-i)``;
+    ``burn`` samples are generated and dropped.  ``start``: the filter starts
+    from ``lfilter_zi * start`` instead of at rest, i.e. in the steady state
+    of a constant *input* ``start`` (output ``start / (1 - sum a_i)``).
+    """
     from scipy import signal
 
     a = np.concatenate([[1.0], -np.asarray(coefs, dtype=float)])
     e = rng.normal(0.0, np.sqrt(sigma2), n + burn) + const
-    return signal.lfilter([1.0], a, e)[burn:]
+    if start is None:
+        return signal.lfilter([1.0], a, e)[burn:]
+    return signal.lfilter([1.0], a, e, zi=signal.lfilter_zi([1.0], a) * start)[0][burn:]

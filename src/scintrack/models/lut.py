@@ -3,8 +3,9 @@
 :func:`fit_training_set` fits AR(1..max_order) models, the PACF and the
 selected orders (PACF / AIC / BIC) to every realisation of one CSM training
 dataset; :func:`merge_lut` stacks the per-S4 fits into one table and adds the
-trial averages that trackers use; :func:`lookup` returns the parameters of the
-nearest grid point.
+trial averages that trackers use; :func:`lookup` returns the :class:`~.ar.ArModel` of one component at the
+nearest grid point and :func:`scintillation_ar` the phase/amplitude pair the
+trackers use (orders from Table I).
 
 Layout of the table (NetCDF, CF-style attributes):
 
@@ -20,12 +21,12 @@ Layout of the table (NetCDF, CF-style attributes):
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import xarray as xr
 
-from .ar import TRENDS, fit_orders, ic_order, pacf_order, pacf_with_bound
+from .ar import TRENDS, ArModel, ScintillationAR, fit_orders, ic_order, pacf_order, pacf_with_bound
+from .regions import region_of
 
 COMPONENTS = ("amplitude", "phase")
 CRITERIA = ("pacf", "aic", "bic")
@@ -126,24 +127,36 @@ def merge_lut(fits: Sequence[xr.Dataset]) -> xr.Dataset:
     return lut
 
 
-@dataclass(frozen=True)
-class ArParameters:
-    """AR parameters of one component at one grid point."""
-
-    coefs: np.ndarray
-    const: float
-    sigma2: float
-    s4: float
-    tau0: float
+#: AR(p) phase order per scintillation region (Table I of Vila-Valls 2018); amplitude order q.
+TABLE_I_PHASE_ORDER = {"severe": 1, "moderate": 2, "low": 3}
+AMPLITUDE_ORDER = 3
 
 
-def lookup(lut: xr.Dataset, s4: float, tau0: float, component: str, order: int) -> ArParameters:
-    """Parameters of AR(``order``) at the grid point nearest to (s4, tau0)."""
+def nearest_point(lut: xr.Dataset, s4: float, tau0: float) -> tuple[float, float]:
+    """The grid point (S4, tau0) of the table nearest to (s4, tau0)."""
+    point = lut.sel(s4=s4, tau0=tau0, method="nearest")
+    return float(point["s4"].values), float(point["tau0"].values)
+
+
+def lookup(lut: xr.Dataset, s4: float, tau0: float, component: str, order: int) -> ArModel:
+    """AR(``order``) model of ``component`` at the grid point nearest to (s4, tau0)."""
     point = lut.sel(s4=s4, tau0=tau0, method="nearest").sel(component=component, order=order)
-    return ArParameters(
+    return ArModel(
         coefs=point["coef"].values[:order].copy(),
         const=float(point["const"].values),
         sigma2=float(point["sigma2"].values),
-        s4=float(point["s4"].values),
-        tau0=float(point["tau0"].values),
+    )
+
+
+def scintillation_ar(lut: xr.Dataset, s4: float, tau0: float, phase_order: int | None = None) -> ScintillationAR:
+    """Phase AR(p) and amplitude AR(3) of the grid point nearest to (s4, tau0).
+
+    ``p`` follows Table I for the region of ``s4`` unless ``phase_order`` is given.
+    """
+    p = phase_order or TABLE_I_PHASE_ORDER[region_of(s4)]
+    grid_s4, grid_tau0 = nearest_point(lut, s4, tau0)
+    return ScintillationAR(
+        phase=lookup(lut, s4, tau0, "phase", p),
+        amplitude=lookup(lut, s4, tau0, "amplitude", AMPLITUDE_ORDER),
+        s4=grid_s4, tau0=grid_tau0, label=f"S4={grid_s4:g},tau0={grid_tau0:g},AR({p})/AR(3)",
     )

@@ -36,6 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
+from ..estimators.s4 import window_s4  # S4 lives in estimators.s4 (re-exported here)
+
 GENERATOR_VERSION = "1"
 
 C_LIGHT = 299_792_458.0
@@ -74,13 +76,6 @@ def fresnel_propagate(phase: np.ndarray, dx: float, carrier_hz: float, height_m:
     k = 2 * np.pi * carrier_hz / C_LIGHT
     kappa = 2 * np.pi * np.fft.fftfreq(n, dx)
     return np.fft.ifft(np.fft.fft(np.exp(1j * phase)) * np.exp(-1j * kappa**2 * height_m / (2 * k)))
-
-
-def window_s4(intensity: np.ndarray, per_window: int) -> np.ndarray:
-    """S4 = std(I)/mean(I) over consecutive non-overlapping windows."""
-    m = intensity.size // per_window
-    blocks = intensity[: m * per_window].reshape(m, per_window)
-    return blocks.std(axis=1) / blocks.mean(axis=1)
 
 
 def detrend_phase(theta: np.ndarray, ts: float, cutoff_hz: float = 0.1) -> np.ndarray:

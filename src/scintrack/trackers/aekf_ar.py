@@ -1,4 +1,4 @@
-"""AEKF-AR: adaptive EKF on [I, Q] with AR scintillation phase and amplitude.
+"""AEKF-AR: adaptive EKF on [I, Q] with AR scintillation phase and amplitude; type ``aekf_ar``.
 
 Vila-Valls 2018, Sec. IV-B and V-B.  State (eq. 11)
 ``x = [theta_d, f_d, f_r, theta_s,k .. theta_s,k-p+1, rho_s,k .. rho_s,k-q+1]``,
@@ -10,13 +10,14 @@ estimate on the incoming prompts.
 
 Adaptation (Sec. V-B): an on-line S4 estimate (noise-corrected intensity
 moments over a sliding window, :mod:`scintrack.estimators.s4`) selects, per
-trial, the nearest of a list of AR parameter sets ("adaptation
-points", each an (S4, tau0) entry of the AR look-up table with the orders of
-Table I).  All sets share the largest state (p = q = 3), with unused lags set to
-zero, so switching SSM #1-#4 is a change of F_k and Q_k only (the paper's
-single-filter architecture).  A new set is adopted only after it has been the
-nearest one for ``adapt_hold`` consecutive epochs (a hold against switching
-back and forth on estimator noise; the paper gives no rule).  Non-adaptive use: a single parameter set.
+trial, the nearest of a list of AR models (:class:`~scintrack.models.ar.ScintillationAR`,
+"adaptation points", each an (S4, tau0) entry of the AR look-up table with the
+orders of Table I).  All sets share the largest state (p = q = 3), with unused
+lags set to zero, so switching SSM #1-#4 is a change of F_k and Q_k only (the
+paper's single-filter architecture).  A new set is adopted only after it has
+been the nearest one for ``adapt_hold`` consecutive epochs (a hold against
+switching back and forth on estimator noise; the paper gives no rule).
+Non-adaptive use: a single parameter set (``design``, :mod:`.design`).
 
 Not in the paper (an isolating option, off by default): ``fold_mirror``.
 The I/Q measurement is invariant under ``(rho_s, theta_s) -> (-rho_s,
@@ -27,52 +28,167 @@ a negative ``rho_s,k`` after the update is mapped back: every amplitude lag
 changes sign, every theta_s lag gains pi, and ``P -> J P J`` with ``J`` the
 matching sign matrix.  The I/Q prediction is unchanged by the fold.
 
-The measurement update exploits that H has non-zero entries only in the
-columns of theta_d, theta_s,k and rho_s,k: ``P H^T`` is two weighted column
-sums and the 2x2 innovation covariance is inverted in closed form.
+``static: true`` (Sec. VI-E2) fixes the dynamics block at zero (known, no
+process noise): the dynamics-free scintillation tracking of the traces.
+
+The kernel (:func:`aekf_kernel`) is made of :mod:`.blocks` (predict, M2M4,
+closed-form I/Q update, fold, sliding S4, nearest point);
+:meth:`AEKFAR.reference` is the textbook EKF with the 2 x n Jacobian of
+eq. (14) built explicitly and S inverted by ``numpy.linalg``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit
 
 from ..estimators.cn0 import StreamingM2M4
 from ..estimators.s4 import StreamingS4
-from .base import TrackInit, TrackOutput, companion, dynamics_F, dynamics_Q
+from ..models.ar import ScintillationAR
+from ..models.lut import scintillation_ar
+from . import blocks
+from .base import (
+    DESIGN_SCHEMA,
+    PHASE_ORDER_SCHEMA,
+    Q_JERK_SCHEMA,
+    TrackerContext,
+    TrackInit,
+    TrackOutput,
+    companion,
+    dynamics_F,
+    dynamics_Q,
+    initial_state,
+    spec_p0,
+    spec_q_jerk,
+)
+from .design import compose, design_ar, explicit_design_s4, q_qualifier
+from .registry import register
+
+M2M4_MIN_EPOCHS = 10
+M2M4_FLOOR = 1e-3
+RECORDABLE = ("theta_s", "rho_s", "s4_hat", "ar_set")
 
 
-@dataclass(frozen=True)
-class ArSet:
-    """One SSM parameterisation: AR(p) phase and AR(q) amplitude (eqs. 9-10)."""
+class AekfParams(NamedTuple):
+    """Everything :func:`aekf_kernel` needs besides the prompts."""
 
-    beta: np.ndarray
-    gamma: np.ndarray
-    kappa: float
-    sigma2_theta: float
-    sigma2_rho: float
-    s4: float = 0.0
-    label: str = ""
+    x0: np.ndarray  # (trials, n) initial state
+    p0: np.ndarray  # (n,) initial variances (P0 diagonal)
+    F_tab: np.ndarray  # (sets, n, n)
+    Q_tab: np.ndarray  # (sets, n, n)
+    kap_tab: np.ndarray  # (sets, n)
+    s4_points: np.ndarray  # (sets,) S4 of each set
+    adaptive: bool
+    initial_set: int
+    A: float  # nominal amplitude
+    nominal_noise: float  # noise power before the M2M4 window has M2M4_MIN_EPOCHS
+    noise_window: int
+    s4_window: int
+    s4_min_epochs: int
+    adapt_hold: int
+    ir: int  # index of rho_s,k in the state
+    record: bool
+    floor_fraction: float
+    nz_rows: np.ndarray  # non-zeros of every F (blocks.nonzeros)
+    nz_cols: np.ndarray
+    nz_vals: np.ndarray
+    nz_count: np.ndarray
+    fold_mirror: bool
 
-    @staticmethod
-    def no_scintillation() -> ArSet:
-        """SSM #1 as in Case I: gamma_1 = 1, everything else 0."""
-        return ArSet(beta=np.zeros(1), gamma=np.array([1.0]), kappa=0.0, sigma2_theta=0.0, sigma2_rho=0.0, s4=0.0, label="none")
 
-    @property
-    def rho_mean(self) -> float:
-        denom = 1.0 - float(np.sum(self.gamma))
-        return self.kappa / denom if abs(denom) > 1e-9 else 1.0
+@njit(cache=True)
+def aekf_kernel(y, prm):
+    n_tr, k = y.shape
+    n = prm.F_tab.shape[1]
+    ir = prm.ir
+    out = np.empty((n_tr, k))
+    if prm.record:
+        rec_ts = np.empty((n_tr, k))
+        rec_rho = np.empty((n_tr, k))
+        rec_s4 = np.empty((n_tr, k))
+        rec_set = np.empty((n_tr, k))
+    else:
+        rec_ts = np.empty((0, 0))
+        rec_rho = np.empty((0, 0))
+        rec_s4 = np.empty((0, 0))
+        rec_set = np.empty((0, 0))
+    nb2 = np.zeros(prm.noise_window)
+    nb4 = np.zeros(prm.noise_window)
+    sb1 = np.zeros(prm.s4_window)
+    sb2 = np.zeros(prm.s4_window)
+    x = np.empty(n)
+    xp = np.empty(n)
+    P = np.empty((n, n))
+    FP = np.empty((n, n))
+    ph0 = np.empty(n)
+    ph1 = np.empty(n)
+    for t in range(n_tr):
+        x[:] = prm.x0[t]
+        P[:, :] = 0.0
+        for a in range(n):
+            P[a, a] = prm.p0[a]
+        nb2[:] = 0.0
+        nb4[:] = 0.0
+        sb1[:] = 0.0
+        sb2[:] = 0.0
+        ns2 = 0.0
+        ns4 = 0.0
+        ncount = 0
+        npos = 0
+        ss1 = 0.0
+        ss2 = 0.0
+        scount = 0
+        spos = 0
+        idx = prm.initial_set
+        candidate = prm.initial_set
+        held = 0
+        s4_hat = prm.s4_points[prm.initial_set]
+        for i in range(k):
+            if i > 0:
+                blocks.predict(x, P, xp, FP, prm.Q_tab[idx], prm.kap_tab[idx], prm.nz_rows[idx], prm.nz_cols[idx], prm.nz_vals[idx], prm.nz_count[idx], True)
+            yr, yi = y[t, i].real, y[t, i].imag
+            p2 = yr * yr + yi * yi
+            # M2M4 noise power over the last noise_window epochs
+            npos, ns2, ns4, ncount = blocks.window_push(nb2, nb4, npos, ns2, ns4, ncount, p2, p2 * p2)
+            if ncount < M2M4_MIN_EPOCHS:
+                s2 = prm.nominal_noise
+            else:
+                _, s2 = blocks.m2m4_split(ns2 / ncount, ns4 / ncount, prm.floor_fraction)
+            blocks.iq_update(x, P, ph0, ph1, prm.A, ir, 0.5 * s2, yr, yi)
+            if prm.fold_mirror and x[ir] < 0.0:
+                blocks.fold_mirror(x, P, ir)
+            if i % 64 == 63:
+                blocks.symmetrise(P)
+            if prm.adaptive:
+                spos, ss1, ss2, scount = blocks.window_push(sb1, sb2, spos, ss1, ss2, scount, p2, p2 * p2)
+                if scount >= prm.s4_min_epochs:
+                    mean, var = blocks.window_mean_var(ss1, ss2, scount)
+                    s4_hat = blocks.s4_corrected(mean, var, s2)
+                best = blocks.nearest_index(s4_hat, prm.s4_points)
+                held = held + 1 if best == candidate else 0
+                candidate = best
+                if held >= prm.adapt_hold:
+                    idx = candidate
+            out[t, i] = x[0]
+            if prm.record:
+                rec_ts[t, i] = x[3]
+                rec_rho[t, i] = x[ir]
+                rec_s4[t, i] = s4_hat
+                rec_set[t, i] = idx
+    return out, rec_ts, rec_rho, rec_s4, rec_set
 
 
+@register("aekf_ar")
 @dataclass
 class AEKFAR:
     ts: float
     q_jerk: float
     p0_diag: tuple[float, float, float]
-    ar_sets: Sequence[ArSet]
+    ar_sets: Sequence[ScintillationAR]
     p_state: int = 3
     q_state: int = 3
     adaptive: bool = False
@@ -88,10 +204,70 @@ class AEKFAR:
     fold_mirror: bool = False
     record: tuple[str, ...] = field(default_factory=tuple)
 
+    SCHEMA = {
+        "adaptive": {"type": "boolean", "description": "switch between tracking.adaptation_points on the on-line S4 (Sec. V-B)"},
+        "design": DESIGN_SCHEMA,
+        "phase_order": PHASE_ORDER_SCHEMA,
+        "state": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "integer", "minimum": 1, "maximum": 3}, "description": "[p, q] lags held in the state"},
+        "q_jerk_hz2_s3": Q_JERK_SCHEMA,
+        "static": {"type": "boolean", "description": "dynamics known to be zero (Sec. VI-E2)"},
+        "fold_mirror": {"type": "boolean", "description": "map a negative rho_s back to the positive solution (isolating option)"},
+    }
+
     def __post_init__(self):
         for s in self.ar_sets:
-            if len(s.beta) > self.p_state or len(s.gamma) > self.q_state:
+            if s.phase.order > self.p_state or s.amplitude.order > self.q_state:
                 raise ValueError(f"AR set {s.label!r} has more lags than the state holds (p={self.p_state}, q={self.q_state})")
+        unknown = set(self.record) - set(RECORDABLE)
+        if unknown:
+            raise ValueError(f"cannot record {sorted(unknown)} (recordable: {', '.join(RECORDABLE)})")
+
+    # --- config ---------------------------------------------------------------
+
+    @classmethod
+    def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> AEKFAR:
+        tr = context.tracking
+        amp = float(tr["amplitude"])
+        q, p0 = spec_q_jerk(spec, context), spec_p0(context)
+        if spec.get("static", False):
+            q, p0 = 0.0, (0.0, 0.0, 0.0)
+        p_state, q_state = spec.get("state", [3, 3])
+        adaptive = bool(spec.get("adaptive", False))
+        if adaptive:
+            if context.lut is None:
+                raise ValueError("adaptive: true needs the AR look-up table")
+            sets = [ScintillationAR.no_scintillation()] + [scintillation_ar(context.lut, float(s4), float(tau0)) for s4, tau0 in tr["adaptation_points"]]
+        else:
+            sets = [design_ar(spec, context)]
+        return cls(
+            ts=context.ts, q_jerk=q, p0_diag=p0, ar_sets=sets, p_state=int(p_state), q_state=int(q_state), adaptive=adaptive,
+            initial_set=0, amplitude=amp, nominal_noise=amp**2 / (context.cn0_hz * context.ts),
+            noise_window=int(tr["noise_window"]), s4_window=int(tr["s4_window"]), s4_min_epochs=int(tr["s4_min_epochs"]),
+            adapt_hold=int(tr["adapt_hold"]), theta_s_p0=float(tr["theta_s_p0"]), rho_p0=float(tr["rho_p0"]),
+            fold_mirror=bool(spec.get("fold_mirror", False)),
+        )
+
+    @staticmethod
+    def label(name: str, spec: Mapping[str, Any]) -> str:
+        suffix = ", mirror folded" if spec.get("fold_mirror") else ""
+        s4 = explicit_design_s4(spec)
+        if s4 is not None:
+            return compose("AEKF-AR", q_qualifier(spec), f", AR fit at S4 = {s4:g}{suffix}")
+        if "state" in spec:
+            p, q = spec["state"]
+            return compose(f"AEKF-AR{p}{q}", q_qualifier(spec), suffix)
+        quals = []
+        if spec.get("static"):
+            quals.append("static")
+        elif spec.get("adaptive"):
+            pass
+        elif spec.get("design", "scenario") == "none":
+            quals.append("SSM #1")
+        elif spec.get("design", "scenario") == "scenario":
+            quals.append("fixed AR")
+        return compose("AEKF-AR", quals + q_qualifier(spec), suffix)
+
+    # --- model ------------------------------------------------------------------
 
     @property
     def n_state(self) -> int:
@@ -106,17 +282,16 @@ class AEKFAR:
         kap = np.zeros((len(self.ar_sets), n))
         for j, s in enumerate(self.ar_sets):
             F[j, :3, :3], Q[j, :3, :3] = f_d, q_d
-            F[j, 3 : 3 + p, 3 : 3 + p] = companion(s.beta, p)
-            F[j, 3 + p :, 3 + p :] = companion(s.gamma, self.q_state)
-            Q[j, 3, 3] = s.sigma2_theta
-            Q[j, 3 + p, 3 + p] = s.sigma2_rho
-            kap[j, 3 + p] = s.kappa
+            F[j, 3 : 3 + p, 3 : 3 + p] = companion(s.phase.coefs, p)
+            F[j, 3 + p :, 3 + p :] = companion(s.amplitude.coefs, self.q_state)
+            Q[j, 3, 3] = s.phase.sigma2
+            Q[j, 3 + p, 3 + p] = s.amplitude.sigma2
+            kap[j, 3 + p] = s.amplitude.const
         return F, Q, kap
 
-    def _initial(self, init: TrackInit, n_tr: int) -> tuple[np.ndarray, np.ndarray]:
+    def _initial(self, init: TrackInit) -> tuple[np.ndarray, np.ndarray]:
         n, p = self.n_state, self.p_state
-        x = np.zeros((n_tr, n))
-        x[:, 0], x[:, 1], x[:, 2] = init.phase, init.doppler_hz, init.rate_hz_s
+        x = initial_state(init, n)
         x[:, 3 + p :] = self.ar_sets[self.initial_set].rho_mean
         p0 = np.zeros(n)
         p0[:3] = self.p0_diag
@@ -124,25 +299,33 @@ class AEKFAR:
         p0[3 + p :] = self.rho_p0
         return x, p0
 
-    def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
-        """Compiled loop (:func:`scintrack.trackers.kernels.aekf_kernel`)."""
-        from .kernels import aekf_kernel, nonzeros
-
+    def params(self, init: TrackInit) -> AekfParams:
         F_tab, Q_tab, kap_tab = self.tables()
-        x, p0 = self._initial(init, y.shape[0])
-        record = bool(self.record)
-        out, th_s, rho, s4_hat, sets = aekf_kernel(
-            np.ascontiguousarray(y, dtype=complex), x, p0, F_tab, Q_tab, kap_tab,
-            np.array([s.s4 for s in self.ar_sets], dtype=float), bool(self.adaptive), int(self.initial_set),
-            float(self.amplitude), float(self.nominal_noise), int(self.noise_window), int(self.s4_window),
-            int(self.s4_min_epochs), int(self.adapt_hold), 3 + self.p_state, record, 1e-3, *nonzeros(F_tab),
-            bool(self.fold_mirror),
+        x, p0 = self._initial(init)
+        return AekfParams(
+            x, p0, F_tab, Q_tab, kap_tab, np.array([s.s4 for s in self.ar_sets], dtype=float), bool(self.adaptive), int(self.initial_set),
+            float(self.amplitude), float(self.nominal_noise), int(self.noise_window), int(self.s4_window), int(self.s4_min_epochs),
+            int(self.adapt_hold), 3 + self.p_state, bool(self.record), M2M4_FLOOR, *blocks.nonzeros(F_tab), bool(self.fold_mirror),
         )
+
+    # --- filters ---------------------------------------------------------------------
+
+    def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
+        """Compiled loop (:func:`aekf_kernel`)."""
+        out, th_s, rho, s4_hat, sets = aekf_kernel(np.ascontiguousarray(y, dtype=complex), self.params(init))
         available = {"theta_s": th_s, "rho_s": rho, "s4_hat": s4_hat, "ar_set": sets}
         return TrackOutput(theta_d=out, extras={k: available[k] for k in self.record})
 
-    def run_numpy(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
-        """Vectorised numpy reference of the same filter."""
+    def reference(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
+        """Textbook EKF in numpy, one time loop vectorised over trials.
+
+        Predict ``x = F x + kappa``, ``P = F P F^T + Q`` (F, Q, kappa of each
+        trial's current set); update on ``z = [I, Q]`` with ``h(x)`` of eq. (13)
+        and its Jacobian H (2 x n, eq. 14) built explicitly:
+        ``S = H P H^T + R``, ``K = P H^T S^-1`` (``numpy.linalg.inv``),
+        ``x += K (z - h(x))``, ``P = (I - K H) P``; then the mirror fold, the
+        periodic symmetrisation and the S4-driven switch as in the kernel.
+        """
         n_tr, k = y.shape
         n, p = self.n_state, self.p_state
         ir = 3 + p  # index of rho_s,k
@@ -150,57 +333,38 @@ class AEKFAR:
         F_tab, Q_tab, kap_tab = self.tables()
         s4_points = np.array([s.s4 for s in self.ar_sets])
         idx = np.full(n_tr, self.initial_set, dtype=int)
-
-        x, p0 = self._initial(init, n_tr)
+        x, p0 = self._initial(init)
         P = np.broadcast_to(np.diag(p0), (n_tr, n, n)).copy()
-
-        noise = StreamingM2M4(n_tr, self.noise_window, prior_signal=A**2, prior_noise=self.nominal_noise)
+        eye = np.eye(n)
+        noise = StreamingM2M4(n_tr, self.noise_window, prior_signal=A**2, prior_noise=self.nominal_noise, min_epochs=M2M4_MIN_EPOCHS, floor_fraction=M2M4_FLOOR)
         s4 = StreamingS4(n_tr, self.s4_window, prior=self.ar_sets[self.initial_set].s4, min_epochs=self.s4_min_epochs) if self.adaptive else None
         candidate = idx.copy()
         held = np.zeros(n_tr, dtype=int)
-
         out = np.empty((n_tr, k))
         rec = {name: np.empty((n_tr, k)) for name in self.record}
-        shared = not self.adaptive
-        F1, Q1, k1 = F_tab[self.initial_set], Q_tab[self.initial_set], kap_tab[self.initial_set]
-        F1t = F1.T
+        s4_hat = np.full(n_tr, self.ar_sets[self.initial_set].s4)
         for i in range(k):
-            # --- predict (eq. 11); the initial state is at epoch 0
-            if i == 0:
-                pass
-            elif shared:
-                x = x @ F1t + k1
-                P = F1 @ P @ F1t + Q1
-            else:
+            if i > 0:
                 Fi = F_tab[idx]
-                x = np.einsum("nij,nj->ni", Fi, x) + kap_tab[idx]
+                x = np.einsum("tij,tj->ti", Fi, x) + kap_tab[idx]
                 P = Fi @ P @ Fi.transpose(0, 2, 1) + Q_tab[idx]
-            # --- update with z = [I, Q] (eqs. 13-14)
             yi = y[:, i]
             _, s2 = noise.update(yi)
-            r = 0.5 * s2
+            R = 0.5 * s2[:, None, None] * np.eye(2)
             th = x[:, 0] + x[:, 3]
             rho = x[:, ir]
-            c, s = np.cos(th), np.sin(th)
-            a0, a1 = -A * rho * s, A * rho * c  # d h / d theta (rows I, Q)
-            b0, b1 = A * c, A * s  # d h / d rho
-            u = P[:, :, 0] + P[:, :, 3]
-            v = P[:, :, ir]
-            ph0 = a0[:, None] * u + b0[:, None] * v  # P H^T, column for I
-            ph1 = a1[:, None] * u + b1[:, None] * v  # column for Q
-            hu0 = ph0[:, 0] + ph0[:, 3]
-            hu1 = ph1[:, 0] + ph1[:, 3]
-            s00 = a0 * hu0 + b0 * ph0[:, ir] + r
-            s01 = a0 * hu1 + b0 * ph1[:, ir]
-            s11 = a1 * hu1 + b1 * ph1[:, ir] + r
-            det = s00 * s11 - s01 * s01
-            i00, i01, i11 = s11 / det, -s01 / det, s00 / det
-            k0 = ph0 * i00[:, None] + ph1 * i01[:, None]
-            k1_ = ph0 * i01[:, None] + ph1 * i11[:, None]
-            e0 = yi.real - A * rho * c
-            e1 = yi.imag - A * rho * s
-            x = x + k0 * e0[:, None] + k1_ * e1[:, None]
-            P = P - k0[:, :, None] * ph0[:, None, :] - k1_[:, :, None] * ph1[:, None, :]
+            h = A * rho[:, None] * np.stack([np.cos(th), np.sin(th)], axis=-1)  # eq. (13)
+            H = np.zeros((n_tr, 2, n))  # eq. (14)
+            H[:, 0, 0] = H[:, 0, 3] = -A * rho * np.sin(th)
+            H[:, 1, 0] = H[:, 1, 3] = A * rho * np.cos(th)
+            H[:, 0, ir] = A * np.cos(th)
+            H[:, 1, ir] = A * np.sin(th)
+            Ht = H.transpose(0, 2, 1)
+            S = H @ P @ Ht + R
+            K = P @ Ht @ np.linalg.inv(S)
+            nu = np.stack([yi.real, yi.imag], axis=-1) - h
+            x = x + (K @ nu[:, :, None])[:, :, 0]
+            P = (eye - K @ H) @ P
             if self.fold_mirror:
                 neg = x[:, ir] < 0.0
                 if neg.any():
@@ -210,22 +374,14 @@ class AEKFAR:
                     P[neg] = P[neg] * sign[None, :, None] * sign[None, None, :]
             if i % 64 == 63:
                 P = 0.5 * (P + P.transpose(0, 2, 1))
-            # --- adapt the SSM to the estimated S4 (Sec. V-B)
             if s4 is not None:
                 s4_hat = s4.update(yi, s2)
                 nearest = np.argmin(np.abs(s4_hat[:, None] - s4_points[None, :]), axis=1)
-                # switch only when the nearest set has been the same for adapt_hold epochs
                 held = np.where(nearest == candidate, held + 1, 0)
                 candidate = nearest
-                switch = held >= self.adapt_hold
-                idx = np.where(switch, candidate, idx)
-                if "s4_hat" in rec:
-                    rec["s4_hat"][:, i] = s4_hat
+                idx = np.where(held >= self.adapt_hold, candidate, idx)
             out[:, i] = x[:, 0]
-            if "theta_s" in rec:
-                rec["theta_s"][:, i] = x[:, 3]
-            if "rho_s" in rec:
-                rec["rho_s"][:, i] = x[:, ir]
-            if "ar_set" in rec:
-                rec["ar_set"][:, i] = idx
+            for name, value in (("theta_s", x[:, 3]), ("rho_s", x[:, ir]), ("s4_hat", s4_hat), ("ar_set", idx)):
+                if name in rec:
+                    rec[name][:, i] = value
         return TrackOutput(theta_d=out, extras=rec)

@@ -1,10 +1,14 @@
-"""What every tracker shares: the interface, the dynamics model and the
-discriminator.
+"""What every tracker shares: the interface, the build context, the dynamics
+model and the numpy forms of the discriminator and its variance.
 
-Interface: ``tracker.run(y, init) -> TrackOutput`` where ``y`` holds prompt
-samples shaped (trials, epochs) and ``init`` the acquisition values (initial
-phase and Doppler per trial).  The time loop is the only Python loop; every
-operation inside it is vectorised over trials.
+Interface (:class:`Tracker`): ``tracker.run(y, init) -> TrackOutput`` where
+``y`` holds complex prompt samples shaped (trials, epochs) and ``init`` the
+acquisition values (initial phase and Doppler per trial).  ``run`` is the
+compiled kernel; ``reference`` (same signature) is the textbook numpy form of
+the same filter, one trial-vectorised time loop, used by the tests and the
+benchmark.  A tracker type is registered in :mod:`.registry` and built from its
+config entry by its ``from_spec(spec, context)``; :class:`TrackerContext` is
+everything a spec may refer to besides its own keys.
 
 Dynamics model (eq. 8 with m = 3): state ``[theta_d (rad), f_d (Hz), f_r (Hz/s)]``,
 ``F_d = [[1, 2 pi T, pi T^2], [0, 1, T], [0, 0, 1]]``; process noise from a
@@ -14,10 +18,13 @@ white Doppler-jerk of PSD ``q`` (Hz^2/s^3):
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
-from scipy.special import erf
+
+from . import blocks
 
 
 @dataclass
@@ -37,6 +44,38 @@ class TrackOutput:
     extras: dict[str, np.ndarray] = field(default_factory=dict)
 
 
+@runtime_checkable
+class Tracker(Protocol):
+    """A carrier tracker: complex prompts (trials, epochs) in, theta_d estimates out."""
+
+    def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput: ...
+
+
+@dataclass(frozen=True)
+class TrackerContext:
+    """What a tracker spec may refer to besides its own keys.
+
+    * ``scenario``: the scenario mapping (``design: scenario`` reads its first
+      segment; ``cn0_dbhz`` overrides the nominal C/N0);
+    * ``tracking``: the shared ``config["tracking"]`` section (Q, P0, windows, ...);
+    * ``lut``: the AR look-up table (``xarray.Dataset``) or None;
+    * ``ts``: the correlator period [s];
+    * ``trace_set``: the AR models fitted on a trace
+      (:class:`scintrack.models.ar.ScintillationAR`) or None.
+    """
+
+    scenario: Mapping[str, Any]
+    tracking: Mapping[str, Any]
+    lut: Any = None
+    ts: float = 0.01
+    trace_set: Any = None
+
+    @property
+    def cn0_hz(self) -> float:
+        """Nominal C/N0 [Hz] of the scenario (``tracking.cn0_dbhz`` unless the scenario overrides it)."""
+        return 10.0 ** (float(self.scenario.get("cn0_dbhz", self.tracking["cn0_dbhz"])) / 10.0)
+
+
 def dynamics_F(ts: float) -> np.ndarray:
     return np.array([[1.0, 2 * np.pi * ts, np.pi * ts**2], [0.0, 1.0, ts], [0.0, 0.0, 1.0]])
 
@@ -54,9 +93,10 @@ def dynamics_Q(q_jerk: float, ts: float) -> np.ndarray:
 
 
 def atan2_discriminator(y: np.ndarray, phase: np.ndarray) -> np.ndarray:
-    """Four-quadrant phase error of ``y`` against the replica phase, in (-pi, pi]."""
-    r = y * np.exp(-1j * phase)
-    return np.arctan2(r.imag, r.real)
+    """Four-quadrant phase error of ``y`` against the replica phase, in (-pi, pi]
+    (:func:`.blocks.atan2_discriminator` on arrays)."""
+    y = np.asarray(y)
+    return blocks.atan2_discriminator_ufunc(y.real, y.imag, phase)
 
 
 def atan_variance(cn0_hz: np.ndarray | float, ts: float) -> np.ndarray:
@@ -68,9 +108,9 @@ def atan_variance(cn0_hz: np.ndarray | float, ts: float) -> np.ndarray:
     ``1/(2 C/N0 Ts)``.  With ``x = 2 C/N0 Ts`` it tends to the right limit and
     follows the Monte Carlo variance of the discriminator within about 5% from
     10 to 35 dB-Hz (reference notes §3.2; ``tests/test_trackers.py`` checks it).
+    The formula is :func:`.blocks.atan_variance`; this is its array form.
     """
-    x = np.maximum(2.0 * np.asarray(cn0_hz, dtype=float) * ts, 1e-6)
-    return (np.exp(-0.8 * np.sqrt(x)) + 1.0) * erf(0.4 * x) / x
+    return blocks.atan_variance_ufunc(np.asarray(cn0_hz, dtype=float), float(ts))
 
 
 def companion(coefs: np.ndarray, size: int) -> np.ndarray:
@@ -79,3 +119,39 @@ def companion(coefs: np.ndarray, size: int) -> np.ndarray:
     out[0, : len(coefs)] = coefs
     out[np.arange(1, size), np.arange(size - 1)] = 1.0
     return out
+
+
+def initial_state(init: TrackInit, n_state: int) -> np.ndarray:
+    """State (trials, n_state) with the dynamics block from the acquisition, the rest 0."""
+    x = np.zeros((np.asarray(init.phase).size, n_state))
+    x[:, 0], x[:, 1], x[:, 2] = init.phase, init.doppler_hz, init.rate_hz_s
+    return x
+
+
+def spec_q_jerk(spec: Mapping[str, Any], context: TrackerContext) -> float:
+    """The Doppler-jerk PSD: the spec's ``q_jerk_hz2_s3`` or the shared one."""
+    return float(spec.get("q_jerk_hz2_s3", context.tracking["q_jerk_hz2_s3"]))
+
+
+def spec_p0(context: TrackerContext) -> tuple[float, float, float]:
+    return tuple(float(v) for v in context.tracking["p0_diag"])
+
+
+#: JSON-Schema fragments shared by several tracker types (one place each).
+Q_JERK_SCHEMA = {"type": "number", "minimum": 0, "description": "PSD of the Doppler jerk in Q_d [Hz2/s3] (default: tracking.q_jerk_hz2_s3)"}
+DESIGN_SCHEMA = {
+    "description": "AR parameters: scenario (look-up-table point of the scenario's first segment), none (SSM #1), trace (fitted on the trace) or {s4, tau0}",
+    "oneOf": [
+        {"enum": ["scenario", "none", "trace"]},
+        {
+            "type": "object",
+            "additionalProperties": False,
+            "required": ["s4", "tau0"],
+            "properties": {
+                "s4": {"type": "number", "exclusiveMinimum": 0, "maximum": 1.5},
+                "tau0": {"type": "number", "exclusiveMinimum": 0, "maximum": 100},
+            },
+        },
+    ],
+}
+PHASE_ORDER_SCHEMA = {"type": "integer", "minimum": 1, "maximum": 3, "description": "AR(p) phase order (default: Table I of the region)"}

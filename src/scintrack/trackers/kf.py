@@ -1,29 +1,126 @@
 """Discriminator-based Kalman filters: KF, AKF and AKF-AR (Vila-Valls 2018, Sec. V-A, VI).
 
-One filter, three configurations (they differ only in R and in the state):
+One filter, three registered types (they differ only in R and in the state):
 
-* **KF**: state ``x1 = [theta_d, f_d, f_r]`` (eq. 8, m = 3), measurement the
+* ``kf``: state ``x1 = [theta_d, f_d, f_r]`` (eq. 8, m = 3), measurement the
   ATAN2 discriminator output on the predicted phase, ``H = [1, 0, 0]``, fixed
   ``R`` = eq. (12) at the nominal C/N0 ("heuristically set from the expected
   propagation conditions").
-* **AKF**: the same with ``R_k`` = eq. (12) at the on-line M2M4 C/N0 estimate.
-* **AKF-AR** (ref. [14]): AKF with the state augmented by the AR(p)
+* ``akf``: the same with ``R_k`` = eq. (12) at the on-line M2M4 C/N0 estimate
+  over ``tracking.cn0_window`` epochs.
+* ``akf_ar`` (ref. [14]): AKF with the state augmented by the AR(p)
   scintillation phase ``[theta_s,k .. theta_s,k-p+1]`` (eq. 9), ``H = [1, 0, 0, 1, 0..]``;
-  AR parameters fixed (no adaptation to time-varying conditions).
+  AR parameters fixed by ``design`` (:mod:`.design`; no adaptation).
 
 The discriminator measures ``H x - H x_pred`` wrapped to (-pi, pi], so the
-innovation is the discriminator output itself.  With a fixed R the covariance
-recursion is the same for every trial and is computed once per epoch.
+innovation is the discriminator output itself.  The kernel
+(:func:`kf_kernel`) is made of :mod:`.blocks` (predict, ATAN2, M2M4, eq. 12,
+scalar update); :meth:`DiscriminatorKF.reference` is the textbook matrix form.
+
+Config: ``{type: kf|akf, q_jerk_hz2_s3: ..}``, ``{type: akf_ar, design: .., phase_order: ..}``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit
 
 from ..estimators.cn0 import StreamingM2M4, cn0_from_powers
-from .base import TrackInit, TrackOutput, atan2_discriminator, atan_variance, companion, dynamics_F, dynamics_Q
+from . import blocks
+from .base import (
+    DESIGN_SCHEMA,
+    PHASE_ORDER_SCHEMA,
+    Q_JERK_SCHEMA,
+    TrackerContext,
+    TrackInit,
+    TrackOutput,
+    atan2_discriminator,
+    atan_variance,
+    companion,
+    dynamics_F,
+    dynamics_Q,
+    initial_state,
+    spec_p0,
+    spec_q_jerk,
+)
+from .design import compose, design_ar, explicit_design_s4, q_qualifier
+from .registry import register
+
+M2M4_MIN_EPOCHS = 10
+M2M4_FLOOR = 1e-3
+
+
+class KfParams(NamedTuple):
+    """Everything :func:`kf_kernel` needs besides the prompts."""
+
+    x0: np.ndarray  # (trials, n) initial state
+    P0: np.ndarray  # (n, n)
+    Q: np.ndarray  # (n, n)
+    H: np.ndarray  # (n,)
+    adaptive: bool  # R from the on-line C/N0 (AKF) or fixed
+    r_fixed: float
+    window: int  # M2M4 window [epochs]
+    prior_signal: float  # M2M4 values before min_epochs
+    prior_noise: float
+    ts: float
+    min_epochs: int
+    floor_fraction: float
+    nz_rows: np.ndarray  # non-zeros of F (blocks.nonzeros)
+    nz_cols: np.ndarray
+    nz_vals: np.ndarray
+    nz_count: np.ndarray
+
+
+@njit(cache=True)
+def kf_kernel(y, prm):
+    n_tr, k = y.shape
+    n = prm.Q.shape[0]
+    rows, cols, vals, nnz = prm.nz_rows[0], prm.nz_cols[0], prm.nz_vals[0], prm.nz_count[0]
+    kap = np.zeros(n)
+    out = np.empty((n_tr, k))
+    r_out = np.empty((n_tr, k)) if prm.adaptive else np.empty((0, 0))
+    buf2 = np.zeros(prm.window)
+    buf4 = np.zeros(prm.window)
+    x = np.empty(n)
+    xp = np.empty(n)
+    P = np.empty((n, n))
+    FP = np.empty((n, n))
+    PH = np.empty(n)
+    for t in range(n_tr):
+        x[:] = prm.x0[t]
+        P[:, :] = prm.P0
+        buf2[:] = 0.0
+        buf4[:] = 0.0
+        s2 = 0.0
+        s4 = 0.0
+        count = 0
+        pos = 0
+        for i in range(k):
+            if i > 0:
+                blocks.predict(x, P, xp, FP, prm.Q, kap, rows, cols, vals, nnz, False)
+            phase = 0.0
+            for a in range(n):
+                phase += prm.H[a] * x[a]
+            yr, yi = y[t, i].real, y[t, i].imag
+            nu = blocks.atan2_discriminator(yr, yi, phase)
+            if prm.adaptive:
+                p2 = yr * yr + yi * yi
+                pos, s2, s4, count = blocks.window_push(buf2, buf4, pos, s2, s4, count, p2, p2 * p2)
+                if count < prm.min_epochs:
+                    sig, noi = prm.prior_signal, prm.prior_noise
+                else:
+                    sig, noi = blocks.m2m4_split(s2 / count, s4 / count, prm.floor_fraction)
+                R = blocks.atan_variance(blocks.cn0_from_powers(sig, noi, prm.ts), prm.ts)
+                r_out[t, i] = R
+            else:
+                R = prm.r_fixed
+            blocks.scalar_update(x, P, PH, prm.H, R, nu)
+            out[t, i] = x[0]
+    return out, r_out
 
 
 @dataclass
@@ -40,6 +137,7 @@ class DiscriminatorKF:
     amplitude: float = 1.0
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """F, Q and H (row) of the filter."""
         f_d = dynamics_F(self.ts)
         q_d = dynamics_Q(self.q_jerk, self.ts)
         if self.ar_coefs is None:
@@ -55,67 +153,118 @@ class DiscriminatorKF:
         H[0] = H[3] = 1.0
         return F, Q, H
 
-    def _initial(self, init: TrackInit, n_tr: int, n: int) -> tuple[np.ndarray, np.ndarray]:
-        x = np.zeros((n_tr, n))
-        x[:, 0], x[:, 1], x[:, 2] = init.phase, init.doppler_hz, init.rate_hz_s
+    def _p0(self, n: int) -> np.ndarray:
         p0 = np.zeros((n, n))
         p0[np.arange(3), np.arange(3)] = self.p0_diag
         if n > 3:
             p0[np.arange(3, n), np.arange(3, n)] = self.ar_p0
-        return x, p0
+        return p0
+
+    @property
+    def nominal_noise(self) -> float:
+        """Noise power at the nominal C/N0 (the M2M4 prior)."""
+        return self.amplitude**2 / (self.nominal_cn0_hz * self.ts)
+
+    def params(self, init: TrackInit) -> KfParams:
+        F, Q, H = self.matrices()
+        n = F.shape[0]
+        return KfParams(
+            initial_state(init, n), self._p0(n), Q, H, bool(self.adaptive_r), float(blocks.atan_variance(self.nominal_cn0_hz, self.ts)),
+            int(self.cn0_window), float(self.amplitude**2), float(self.nominal_noise), float(self.ts), M2M4_MIN_EPOCHS, M2M4_FLOOR,
+            *blocks.nonzeros(F),
+        )
 
     def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
-        """Compiled loop (:func:`scintrack.trackers.kernels.kf_kernel`)."""
-        from .kernels import kf_kernel, nonzeros
-
-        F, Q, H = self.matrices()
-        x, p0 = self._initial(init, y.shape[0], F.shape[0])
-        noise0 = self.amplitude**2 / (self.nominal_cn0_hz * self.ts)
-        out, r_out = kf_kernel(
-            np.ascontiguousarray(y, dtype=complex), x, p0, F, Q, H, bool(self.adaptive_r),
-            float(atan_variance(self.nominal_cn0_hz, self.ts)), int(self.cn0_window),
-            float(self.amplitude**2), float(noise0), float(self.ts), 10, 1e-3, *nonzeros(F),
-        )
+        """Compiled loop (:func:`kf_kernel`)."""
+        out, r_out = kf_kernel(np.ascontiguousarray(y, dtype=complex), self.params(init))
         return TrackOutput(theta_d=out, extras={"R": r_out} if self.adaptive_r else {})
 
-    def run_numpy(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
-        """Vectorised numpy reference of the same filter."""
+    def reference(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
+        """Textbook Kalman filter in numpy, one time loop vectorised over trials.
+
+        ``x = F x``, ``P = F P F^T + Q``; ``S = H P H^T + R``, ``K = P H^T S^-1``,
+        ``x += K nu`` with ``nu`` the discriminator on ``H x``, ``P = (I - K H) P``.
+        """
         n_tr, k = y.shape
         F, Q, H = self.matrices()
         n = F.shape[0]
-        x, p0 = self._initial(init, n_tr, n)
-        noise0 = self.amplitude**2 / (self.nominal_cn0_hz * self.ts)
-        r_fixed = float(atan_variance(self.nominal_cn0_hz, self.ts))
-        if self.adaptive_r:
-            P = np.broadcast_to(p0, (n_tr, n, n)).copy()
-            cn0 = StreamingM2M4(n_tr, self.cn0_window, prior_signal=self.amplitude**2, prior_noise=noise0)
-        else:
-            P = p0.copy()
+        H = H[None, :]  # (1, n)
+        eye = np.eye(n)
+        x = initial_state(init, n)[:, :, None]  # (trials, n, 1)
+        P = np.broadcast_to(self._p0(n), (n_tr, n, n)).copy()
+        cn0 = StreamingM2M4(n_tr, self.cn0_window, prior_signal=self.amplitude**2, prior_noise=self.nominal_noise, min_epochs=M2M4_MIN_EPOCHS, floor_fraction=M2M4_FLOOR)
         out = np.empty((n_tr, k))
-        r_out = np.empty((n_tr, k)) if self.adaptive_r else None
-        Ft = F.T
+        r_out = np.empty((n_tr, k))
         for i in range(k):
-            if i > 0:  # predict (the initial state is at epoch 0)
-                x = x @ Ft
-                P = F @ P @ Ft + Q
-            # measurement: discriminator on the predicted total phase
+            if i > 0:
+                x = F @ x
+                P = F @ P @ F.T + Q
             yi = y[:, i]
-            nu = atan2_discriminator(yi, x @ H)
             if self.adaptive_r:
                 sig, noi = cn0.update(yi)
                 R = atan_variance(cn0_from_powers(sig, noi, self.ts), self.ts)
-                PH = P @ H  # (n_tr, n)
-                S = PH @ H + R
-                K = PH / S[:, None]
-                x = x + K * nu[:, None]
-                P = P - K[:, :, None] * PH[:, None, :]
-                r_out[:, i] = R
             else:
-                PH = P @ H
-                S = PH @ H + r_fixed
-                K = PH / S
-                x = x + nu[:, None] * K[None, :]
-                P = P - np.outer(K, PH)
-            out[:, i] = x[:, 0]
-        extras = {"R": r_out} if r_out is not None else {}
-        return TrackOutput(theta_d=out, extras=extras)
+                R = np.full(n_tr, atan_variance(self.nominal_cn0_hz, self.ts))
+            r_out[:, i] = R
+            nu = atan2_discriminator(yi, (H @ x)[:, 0, 0])
+            S = H @ P @ H.T + R[:, None, None]  # (trials, 1, 1)
+            K = P @ H.T @ np.linalg.inv(S)  # (trials, n, 1)
+            x = x + K * nu[:, None, None]
+            P = (eye - K @ H) @ P
+            out[:, i] = x[:, 0, 0]
+        return TrackOutput(theta_d=out, extras={"R": r_out} if self.adaptive_r else {})
+
+    @classmethod
+    def _common(cls, spec: Mapping[str, Any], context: TrackerContext, adaptive: bool) -> dict[str, Any]:
+        return dict(
+            ts=context.ts, q_jerk=spec_q_jerk(spec, context), nominal_cn0_hz=context.cn0_hz, p0_diag=spec_p0(context),
+            adaptive_r=adaptive, cn0_window=int(context.tracking["cn0_window"]), amplitude=float(context.tracking["amplitude"]),
+        )
+
+
+@register("kf")
+class KF(DiscriminatorKF):
+    """KF: fixed R = eq. (12) at the nominal C/N0."""
+
+    SCHEMA = {"q_jerk_hz2_s3": Q_JERK_SCHEMA}
+
+    @classmethod
+    def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> KF:
+        return cls(**cls._common(spec, context, adaptive=False))
+
+    @staticmethod
+    def label(name: str, spec: Mapping[str, Any]) -> str:
+        return compose("KF", q_qualifier(spec))
+
+
+@register("akf")
+class AKF(DiscriminatorKF):
+    """AKF: R_k = eq. (12) at the M2M4 C/N0 estimate."""
+
+    SCHEMA = {"q_jerk_hz2_s3": Q_JERK_SCHEMA}
+
+    @classmethod
+    def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> AKF:
+        return cls(**cls._common(spec, context, adaptive=True))
+
+    @staticmethod
+    def label(name: str, spec: Mapping[str, Any]) -> str:
+        return compose("AKF", q_qualifier(spec))
+
+
+@register("akf_ar")
+class AKFAR(DiscriminatorKF):
+    """AKF-AR: the AKF with the AR(p) scintillation phase in the state."""
+
+    SCHEMA = {"q_jerk_hz2_s3": Q_JERK_SCHEMA, "design": DESIGN_SCHEMA, "phase_order": PHASE_ORDER_SCHEMA}
+
+    @classmethod
+    def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> AKFAR:
+        ar = design_ar(spec, context)
+        return cls(**cls._common(spec, context, adaptive=True), ar_coefs=ar.phase.coefs, ar_sigma2=ar.phase.sigma2, ar_p0=float(context.tracking["theta_s_p0"]))
+
+    @staticmethod
+    def label(name: str, spec: Mapping[str, Any]) -> str:
+        quals = ["no scint. model"] if spec.get("design") == "none" else []
+        s4 = explicit_design_s4(spec)
+        return compose("AKF-AR", quals + q_qualifier(spec), f", AR fit at S4 = {s4:g}" if s4 is not None else "")

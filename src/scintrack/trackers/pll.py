@@ -1,4 +1,4 @@
-"""Third-order PLL with an ATAN2 discriminator (the paper's "PLL").
+"""Third-order PLL with an ATAN2 discriminator (the paper's "PLL"); type ``pll``.
 
 Loop filter (Kaplan & Hegarty; reference notes §3.1), bilinear integrators,
 discriminator ``e_k`` in rad, frequency command in rad/s:
@@ -7,54 +7,87 @@ discriminator ``e_k`` in rad, frequency command in rad/s:
 * ``v_k = v_{k-1} + T ((w_k + w_{k-1})/2 + a3 w0^2 e_k)``
 * ``f_k = (v_k + v_{k-1})/2 + b3 w0 e_k``
 
-with ``w0 = Bn / 0.7845``, ``a3 = 1.1``, ``b3 = 2.4``.  The NCO advances the
+with ``w0 = Bn / 0.7845``, ``a3 = 1.1``, ``b3 = 2.4``
+(:func:`.blocks.pll_constants`, :func:`.blocks.pll_step`).  The NCO advances the
 replica phase by ``f_k T``.  The phase estimate at epoch k is the NCO phase
 used to correlate that epoch (the prediction); the PLL tracks the total phase
 ``theta_d + theta_s``, as every loop without a scintillation model does.
+
+Config: ``{type: pll, bandwidth_hz: 10}`` (default ``tracking.pll_bandwidth_hz``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
+from numba import njit
 
-from .base import TrackInit, TrackOutput, atan2_discriminator
+from . import blocks
+from .base import TrackerContext, TrackInit, TrackOutput, atan2_discriminator
+from .registry import register
 
-A3, B3, W0_PER_BN = 1.1, 2.4, 1.0 / 0.7845
+
+class PllParams(NamedTuple):
+    """Everything :func:`pll_kernel` needs besides the prompts."""
+
+    phase0: np.ndarray  # (trials,) rad
+    v0: np.ndarray  # (trials,) rad/s
+    w0: np.ndarray  # (trials,) rad/s^2
+    ts: float
+    bandwidth_hz: float
 
 
+@njit(cache=True)
+def pll_kernel(y, prm):
+    n, k = y.shape
+    k3, k2, k1 = blocks.pll_constants(prm.bandwidth_hz, prm.ts)
+    out = np.empty((n, k))
+    for t in range(n):
+        phase, v, w = prm.phase0[t], prm.v0[t], prm.w0[t]
+        for i in range(k):
+            out[t, i] = phase
+            e = blocks.atan2_discriminator(y[t, i].real, y[t, i].imag, phase)
+            phase, v, w = blocks.pll_step(phase, v, w, e, k3, k2, k1, prm.ts)
+    return out
+
+
+@register("pll")
 @dataclass
 class PLL:
     ts: float
     bandwidth_hz: float
 
-    def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
-        """Compiled loop (:func:`scintrack.trackers.kernels.pll_kernel`)."""
-        from .kernels import pll_kernel
+    SCHEMA = {"bandwidth_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 50, "description": "loop noise bandwidth Bn [Hz] (default: tracking.pll_bandwidth_hz)"}}
 
-        out = pll_kernel(
-            np.ascontiguousarray(y, dtype=complex), np.asarray(init.phase, dtype=float),
-            2 * np.pi * np.asarray(init.doppler_hz, dtype=float), 2 * np.pi * np.asarray(init.rate_hz_s, dtype=float),
-            float(self.ts), float(self.bandwidth_hz),
+    @classmethod
+    def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> PLL:
+        return cls(ts=context.ts, bandwidth_hz=float(spec.get("bandwidth_hz", context.tracking["pll_bandwidth_hz"])))
+
+    @staticmethod
+    def label(name: str, spec: Mapping[str, Any]) -> str:
+        return "PLL" if "bandwidth_hz" not in spec else f"PLL (Bn = {float(spec['bandwidth_hz']):g} Hz)"
+
+    def params(self, init: TrackInit) -> PllParams:
+        return PllParams(
+            phase0=np.asarray(init.phase, dtype=float), v0=2 * np.pi * np.asarray(init.doppler_hz, dtype=float),
+            w0=2 * np.pi * np.asarray(init.rate_hz_s, dtype=float), ts=float(self.ts), bandwidth_hz=float(self.bandwidth_hz),
         )
-        return TrackOutput(theta_d=out)
 
-    def run_numpy(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
-        """Vectorised numpy reference of the same loop."""
-        n, k = y.shape
-        w0 = self.bandwidth_hz * W0_PER_BN
-        t = self.ts
-        phase = np.array(init.phase, dtype=float)
-        w = 2 * np.pi * np.asarray(init.rate_hz_s, dtype=float)  # rad/s^2
-        v = 2 * np.pi * np.asarray(init.doppler_hz, dtype=float)  # rad/s
-        out = np.empty((n, k))
-        for i in range(k):
+    def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
+        """Compiled loop (:func:`pll_kernel`)."""
+        return TrackOutput(theta_d=pll_kernel(np.ascontiguousarray(y, dtype=complex), self.params(init)))
+
+    def reference(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
+        """The same loop in numpy, vectorised over trials (the blocks applied to arrays)."""
+        prm = self.params(init)
+        k3, k2, k1 = blocks.pll_constants(prm.bandwidth_hz, prm.ts)
+        phase, v, w = prm.phase0.copy(), prm.v0.copy(), prm.w0.copy()
+        out = np.empty(y.shape)
+        for i in range(y.shape[1]):
             out[:, i] = phase
             e = atan2_discriminator(y[:, i], phase)
-            w_new = w + t * w0**3 * e
-            v_new = v + t * (0.5 * (w_new + w) + A3 * w0**2 * e)
-            f = 0.5 * (v_new + v) + B3 * w0 * e
-            w, v = w_new, v_new
-            phase = phase + f * t
+            phase, v, w = blocks.pll_step(phase, v, w, e, k3, k2, k1, prm.ts)
         return TrackOutput(theta_d=out)

@@ -1,0 +1,165 @@
+"""Tracker types by name: registration, construction, labels and config validation.
+
+A tracker type is one module.  Its class registers itself with the
+:func:`register` decorator and provides
+
+* ``from_spec(spec, context) -> Tracker`` (classmethod): build from the config
+  entry ``spec`` (``config["trackers"][name]``) and a :class:`~.base.TrackerContext`;
+* ``label(name, spec) -> str`` (static): the plain-text name used in figures
+  and tables (a ``label:`` key in the spec overrides it, see :func:`label`);
+* ``SCHEMA``: a JSON-Schema ``properties`` dict of its spec keys (``type`` and
+  ``label`` are added here).
+
+The built-in modules are listed once in :data:`BUILTIN_MODULES` and imported
+on first use; a module imported by anybody else (a test, a plug-in) registers
+its types the same way.  The config schema
+(``workflow/schemas/config.schema.yaml``) only requires ``type``; the
+per-type keys are checked by :func:`validate_specs` against the fragments.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from .base import Tracker, TrackerContext
+
+__all__ = ["BUILTIN_MODULES", "TrackerContext", "TrackerType", "build", "get", "known_types", "label", "register", "spec_schema", "validate_specs"]
+
+#: One line per built-in tracker module (the only place that lists them).
+BUILTIN_MODULES = (
+    "scintrack.trackers.pll",
+    "scintrack.trackers.kf",
+    "scintrack.trackers.aekf_ar",
+)
+
+
+@dataclass(frozen=True)
+class TrackerType:
+    name: str
+    cls: type
+    from_spec: Callable[[Mapping[str, Any], TrackerContext], Tracker]
+    label: Callable[[str, Mapping[str, Any]], str]
+    schema: Mapping[str, Any]
+
+
+_TYPES: dict[str, TrackerType] = {}
+_loaded = False
+
+
+def register(name: str) -> Callable[[type], type]:
+    """Class decorator: make ``cls`` the tracker type ``name`` (``type: name`` in the config)."""
+
+    def deco(cls: type) -> type:
+        for attr in ("from_spec", "label", "SCHEMA"):
+            if not hasattr(cls, attr):
+                raise TypeError(f"tracker type {name!r}: {cls.__name__} has no {attr}")
+        old = _TYPES.get(name)
+        if old is not None and old.cls.__qualname__ != cls.__qualname__:
+            raise ValueError(f"tracker type {name!r} is already registered by {old.cls.__module__}.{old.cls.__qualname__}")
+        _TYPES[name] = TrackerType(name=name, cls=cls, from_spec=cls.from_spec, label=cls.label, schema=dict(cls.SCHEMA))
+        return cls
+
+    return deco
+
+
+def _load() -> None:
+    global _loaded
+    if not _loaded:
+        for module in BUILTIN_MODULES:
+            importlib.import_module(module)
+        _loaded = True
+
+
+def known_types() -> list[str]:
+    _load()
+    return sorted(_TYPES)
+
+
+def get(type_name: str) -> TrackerType:
+    _load()
+    try:
+        return _TYPES[type_name]
+    except KeyError:
+        raise ValueError(f"unknown tracker type {type_name!r} (known: {', '.join(known_types())})") from None
+
+
+def build(name: str, spec: Mapping[str, Any], context: TrackerContext) -> Tracker:
+    """The tracker of config entry ``name`` (``spec = config["trackers"][name]``).
+
+    The spec is validated against its type's fragment first (a spec that
+    bypassed the config check, e.g. built in code, cannot carry keys its type
+    ignores).
+    """
+    validate_specs({name: spec}, "the tracker spec")
+    kind = get(spec["type"])
+    try:
+        return kind.from_spec(spec, context)
+    except (ValueError, KeyError) as exc:
+        raise ValueError(f"tracker {name!r} ({spec['type']}): {exc}") from exc
+
+
+def label(name: str, spec: Mapping[str, Any]) -> str:
+    """Plain-text label: the spec's ``label`` if given, else the type's default for this spec."""
+    if "label" in spec:
+        return str(spec["label"])
+    return get(spec["type"]).label(name, spec)
+
+
+def spec_schema(type_name: str) -> dict[str, Any]:
+    """The full JSON Schema (Draft 2020-12) of one spec of this type."""
+    kind = get(type_name)
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "type": "object",
+        "required": ["type"],
+        "additionalProperties": False,
+        "properties": {
+            "type": {"const": type_name},
+            "label": {"type": "string", "minLength": 1, "description": "plain-text label in figures and tables"},
+            **kind.schema,
+        },
+    }
+
+
+def _where(name: str, path) -> str:
+    out = f"trackers.{name}"
+    for item in path:
+        out += f"[{item}]" if isinstance(item, int) else f".{item}"
+    return out
+
+
+def validate_specs(trackers: Mapping[str, Any], source: str = "config/config.yaml") -> None:
+    """Check every tracker spec against its type's schema fragment.
+
+    Raises :class:`scintrack.config.ConfigError` with one line naming the key,
+    the rule it breaks and where to fix it.
+    """
+    import jsonschema
+
+    from ..config import ConfigError
+
+    fix = f"fix it in {source} or your --configfile/--config overlay"
+    for name, spec in trackers.items():
+        if not isinstance(spec, Mapping) or "type" not in spec:
+            raise ConfigError(f"invalid config value at 'trackers.{name}': a tracker needs a 'type' ({', '.join(known_types())}); {fix}")
+        if spec["type"] not in known_types():
+            raise ConfigError(
+                f"invalid config value at 'trackers.{name}.type': unknown tracker type {spec['type']!r} (known: {', '.join(known_types())}); {fix}"
+            )
+        schema = spec_schema(spec["type"])
+        error = jsonschema.exceptions.best_match(jsonschema.Draft202012Validator(schema).iter_errors(dict(spec)))
+        if error is None:
+            continue
+        path = list(error.absolute_path)
+        if error.validator == "additionalProperties" and not path:
+            extra = sorted(set(spec) - set(schema["properties"]))
+            allowed = ", ".join(sorted(schema["properties"]))
+            raise ConfigError(
+                f"invalid config value at '{_where(name, path + extra[:1])}': key not allowed for type {spec['type']!r} (allowed: {allowed}); {fix}"
+            )
+        description = error.schema.get("description") if isinstance(error.schema, Mapping) else None
+        hint = f" ({description})" if description else ""
+        raise ConfigError(f"invalid config value at '{_where(name, path)}': {error.message.splitlines()[0]}{hint}; {fix}")
