@@ -56,7 +56,8 @@ def _lut():
 
 def _context(config, **kw):
     scenario = kw.pop("scenario", config["scenarios"]["s4_0.8_tau0_0.2"])
-    return TrackerContext(scenario=scenario, tracking=config["tracking"], lut=kw.pop("lut", _lut()), ts=0.01, **kw)
+    tracking = kw.pop("tracking", config["tracking"])
+    return TrackerContext(scenario=scenario, tracking=tracking, lut=kw.pop("lut", _lut()), ts=0.01, **kw)
 
 
 def test_every_configured_tracker_builds_to_its_class(config):
@@ -76,6 +77,47 @@ def test_every_configured_tracker_builds_to_its_class(config):
     assert q.q_jerk == 1e-5 and not q.adaptive_r
     akf_ar = registry.build("akf_ar", config["trackers"]["akf_ar"], _context(config))
     np.testing.assert_array_equal(akf_ar.ar_coefs, [0.99])  # severe region: AR(1), grid point S4 = 0.9 (nearest to 0.8)
+
+
+class _Recording(dict):
+    """A tracking section that remembers which keys were read."""
+
+    def __init__(self, *args):
+        super().__init__(*args)
+        self.read = set()
+
+    def __getitem__(self, key):
+        self.read.add(key)
+        return super().__getitem__(key)
+
+    def get(self, key, default=None):
+        self.read.add(key)
+        return super().get(key, default)
+
+
+def test_declared_tracking_keys_are_exactly_what_each_tracker_reads(config):
+    """The workflow gives an experiment only its trackers' TRACKING_KEYS (pipeline.params):
+    a key read but not declared would fail there; one declared but never read would rerun too much."""
+    from scintrack.models.ar import ScintillationAR
+
+    trace_set = ScintillationAR.from_coefs([0.99], [1.8, -0.9, 0.05], 0.05, 1e-3, 1e-3, s4=0.7)
+    for name, spec in config["trackers"].items():
+        declared = set(registry.tracking_keys(spec))
+        full = _Recording(config["tracking"])
+        registry.build(name, spec, _context(config, trace_set=trace_set, tracking=full))
+        assert full.read <= declared, (name, full.read - declared)
+        only = _Recording({k: v for k, v in config["tracking"].items() if k in declared})
+        registry.build(name, spec, _context(config, trace_set=trace_set, tracking=only))  # builds from its slice alone
+    for kind in registry.known_types():
+        if kind.startswith("toy"):
+            continue
+        read = set()
+        for name, spec in config["trackers"].items():
+            if spec["type"] == kind:
+                rec = _Recording(config["tracking"])
+                registry.build(name, spec, _context(config, trace_set=trace_set, tracking=rec))
+                read |= rec.read
+        assert read == set(registry.get(kind).tracking_keys), (kind, set(registry.get(kind).tracking_keys) - read)
 
 
 def test_design_trace_without_a_trace_names_the_tracker(config):
@@ -162,6 +204,7 @@ class HoldPhase:
     doppler_hz: float
 
     SCHEMA = {"doppler_hz": {"type": "number"}}
+    TRACKING_KEYS = ("fd0_hz",)
 
     @classmethod
     def from_spec(cls, spec, context):
@@ -197,6 +240,7 @@ def test_a_type_name_cannot_be_taken_twice():
         @registry.register("pll")
         class Other:
             SCHEMA: dict = {}
+            TRACKING_KEYS = ()
 
             @classmethod
             def from_spec(cls, spec, context):

@@ -15,6 +15,11 @@ dataset (:mod:`scintrack.data.versioning`).
   hand-kept list.
 * :func:`code_version` hashes the normalised sources of that closure.
 
+One module imports modules it does not name: the tracker registry imports
+every module of its package at run time (a new tracker registers itself by
+existing).  :data:`DISCOVERS` says so, and the closure of any rule that
+reaches the registry holds the whole package.
+
 The dump depends on the Python version's AST, so a different interpreter
 gives different versions (reruns, never stale results); the locked
 environment fixes the interpreter.
@@ -29,6 +34,8 @@ from functools import cache
 from pathlib import Path
 
 PACKAGE = "scintrack"
+#: module -> package whose every module it imports at run time (not visible as an import statement)
+DISCOVERS = {"scintrack.trackers.registry": "scintrack.trackers"}
 ROOT = Path(__file__).resolve().parent
 
 
@@ -106,6 +113,11 @@ def _with_parents(name: str) -> set[str]:
     return {".".join(parts[:i]) for i in range(1, len(parts) + 1)}
 
 
+def _package_modules(package: str) -> list[str]:
+    folder = module_file(package).parent
+    return [f"{package}.{p.stem}" for p in sorted(folder.glob("*.py")) if p.stem != "__init__"]
+
+
 def import_closure(entries: Iterable[str | Path]) -> list[str]:
     """Every ``scintrack`` module reachable from ``entries`` (module names or script/module paths)."""
     todo: list[str] = []
@@ -129,6 +141,8 @@ def import_closure(entries: Iterable[str | Path]) -> list[str]:
                 continue
             seen.add(mod)
             todo.extend(_imports(module_file(mod), mod))
+            if mod in DISCOVERS:
+                todo.extend(_package_modules(DISCOVERS[mod]))
     return sorted(seen)
 
 

@@ -37,11 +37,7 @@ def tracker_specs(config: Mapping[str, Any], names) -> dict[str, Any]:
 
 def tracking_slice(config: Mapping[str, Any], names) -> dict[str, Any]:
     """The ``tracking`` keys that the scenario, the metrics and the named trackers read."""
-    try:
-        from ..trackers.registry import tracking_keys
-    except ImportError:  # MERGE-TODO: the tracker registry lands from the architecture branch
-        def tracking_keys(spec):
-            return config["tracking"].keys()
+    from ..trackers.registry import tracking_keys
 
     tracking = config["tracking"]
     keys = set(SCENARIO_TRACKING_KEYS)

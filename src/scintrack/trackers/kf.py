@@ -222,10 +222,15 @@ class DiscriminatorKF:
         )
 
 
+#: tracking keys read by ``_common`` (cn0_dbhz through ``context.cn0_hz``)
+KF_TRACKING_KEYS = ("amplitude", "cn0_dbhz", "cn0_window", "p0_diag", "q_jerk_hz2_s3")
+
+
 @register("kf")
 class KF(DiscriminatorKF):
     """KF: fixed R = eq. (12) at the nominal C/N0."""
 
+    TRACKING_KEYS = KF_TRACKING_KEYS
     SCHEMA = {"q_jerk_hz2_s3": Q_JERK_SCHEMA}
 
     @classmethod
@@ -241,6 +246,7 @@ class KF(DiscriminatorKF):
 class AKF(DiscriminatorKF):
     """AKF: R_k = eq. (12) at the M2M4 C/N0 estimate."""
 
+    TRACKING_KEYS = KF_TRACKING_KEYS
     SCHEMA = {"q_jerk_hz2_s3": Q_JERK_SCHEMA}
 
     @classmethod
@@ -256,6 +262,7 @@ class AKF(DiscriminatorKF):
 class AKFAR(DiscriminatorKF):
     """AKF-AR: the AKF with the AR(p) scintillation phase in the state."""
 
+    TRACKING_KEYS = (*KF_TRACKING_KEYS, "theta_s_p0")
     SCHEMA = {"q_jerk_hz2_s3": Q_JERK_SCHEMA, "design": DESIGN_SCHEMA, "phase_order": PHASE_ORDER_SCHEMA}
 
     @classmethod

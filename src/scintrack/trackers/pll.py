@@ -60,6 +60,7 @@ class PLL:
     ts: float
     bandwidth_hz: float
 
+    TRACKING_KEYS = ("pll_bandwidth_hz",)
     SCHEMA = {"bandwidth_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 50, "description": "loop noise bandwidth Bn [Hz] (default: tracking.pll_bandwidth_hz)"}}
 
     @classmethod

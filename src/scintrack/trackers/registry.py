@@ -8,11 +8,18 @@ A tracker type is one module.  Its class registers itself with the
 * ``label(name, spec) -> str`` (static): the plain-text name used in figures
   and tables (a ``label:`` key in the spec overrides it, see :func:`label`);
 * ``SCHEMA``: a JSON-Schema ``properties`` dict of its spec keys (``type`` and
-  ``label`` are added here).
+  ``label`` are added here);
+* ``TRACKING_KEYS``: the keys of the shared ``config["tracking"]`` section its
+  ``from_spec`` reads.  The workflow hands an experiment only the tracking
+  values its trackers read (:mod:`scintrack.pipeline.params`), so a change of
+  ``tracking.pll_bandwidth_hz`` reruns the experiments with a PLL and no
+  other; a test builds every configured tracker from exactly these keys.
 
-The built-in modules are listed once in :data:`BUILTIN_MODULES` and imported
-on first use; a module imported by anybody else (a test, a plug-in) registers
-its types the same way.  The config schema
+Every module of the ``scintrack.trackers`` package is imported on first use
+(:func:`_load`), so a new tracker module registers itself by existing: no list
+to edit.  (Code versions know this: :mod:`scintrack.codeversion` counts the
+whole package for any rule that imports this registry.)  A module imported by
+anybody else (a test, a plug-in) registers its types the same way.  The config schema
 (``workflow/schemas/config.schema.yaml``) only requires ``type``; the
 per-type keys are checked by :func:`validate_specs` against the fragments.
 """
@@ -26,14 +33,7 @@ from typing import Any
 
 from .base import Tracker, TrackerContext
 
-__all__ = ["BUILTIN_MODULES", "TrackerContext", "TrackerType", "build", "get", "known_types", "label", "register", "spec_schema", "validate_specs"]
-
-#: One line per built-in tracker module (the only place that lists them).
-BUILTIN_MODULES = (
-    "scintrack.trackers.pll",
-    "scintrack.trackers.kf",
-    "scintrack.trackers.aekf_ar",
-)
+__all__ = ["TrackerContext", "TrackerType", "build", "get", "known_types", "label", "register", "spec_schema", "tracking_keys", "validate_specs"]
 
 
 @dataclass(frozen=True)
@@ -43,6 +43,7 @@ class TrackerType:
     from_spec: Callable[[Mapping[str, Any], TrackerContext], Tracker]
     label: Callable[[str, Mapping[str, Any]], str]
     schema: Mapping[str, Any]
+    tracking_keys: tuple[str, ...]
 
 
 _TYPES: dict[str, TrackerType] = {}
@@ -53,13 +54,15 @@ def register(name: str) -> Callable[[type], type]:
     """Class decorator: make ``cls`` the tracker type ``name`` (``type: name`` in the config)."""
 
     def deco(cls: type) -> type:
-        for attr in ("from_spec", "label", "SCHEMA"):
+        for attr in ("from_spec", "label", "SCHEMA", "TRACKING_KEYS"):
             if not hasattr(cls, attr):
                 raise TypeError(f"tracker type {name!r}: {cls.__name__} has no {attr}")
         old = _TYPES.get(name)
         if old is not None and old.cls.__qualname__ != cls.__qualname__:
             raise ValueError(f"tracker type {name!r} is already registered by {old.cls.__module__}.{old.cls.__qualname__}")
-        _TYPES[name] = TrackerType(name=name, cls=cls, from_spec=cls.from_spec, label=cls.label, schema=dict(cls.SCHEMA))
+        _TYPES[name] = TrackerType(
+            name=name, cls=cls, from_spec=cls.from_spec, label=cls.label, schema=dict(cls.SCHEMA), tracking_keys=tuple(cls.TRACKING_KEYS)
+        )
         return cls
 
     return deco
@@ -68,8 +71,11 @@ def register(name: str) -> Callable[[type], type]:
 def _load() -> None:
     global _loaded
     if not _loaded:
-        for module in BUILTIN_MODULES:
-            importlib.import_module(module)
+        import pkgutil
+
+        package = __name__.rpartition(".")[0]
+        for info in pkgutil.iter_modules(importlib.import_module(package).__path__):
+            importlib.import_module(f"{package}.{info.name}")
         _loaded = True
 
 
@@ -106,6 +112,11 @@ def label(name: str, spec: Mapping[str, Any]) -> str:
     if "label" in spec:
         return str(spec["label"])
     return get(spec["type"]).label(name, spec)
+
+
+def tracking_keys(spec: Mapping[str, Any]) -> tuple[str, ...]:
+    """The ``config["tracking"]`` keys a tracker of this spec reads when it is built."""
+    return get(spec["type"]).tracking_keys
 
 
 def spec_schema(type_name: str) -> dict[str, Any]:
