@@ -43,19 +43,19 @@ def test_version_changes_with_an_imported_module_and_not_with_a_comment(tmp_path
     pkg = tmp_path / "scintrack"
     shutil.copytree(REPO / "src" / "scintrack", pkg, ignore=shutil.ignore_patterns("__pycache__"))
     monkeypatch.setattr(codeversion, "ROOT", pkg)
-    codeversion._parse.cache_clear()
+    codeversion.clear_caches()
     script = SCRIPTS / "trace_ar_models.py"
     before = code_version([script])
     ar = pkg / "models" / "ar.py"
     ar.write_text(ar.read_text() + "\n# a comment changes nothing\n")
-    codeversion._parse.cache_clear()
+    codeversion.clear_caches()
     assert code_version([script]) == before
     ar.write_text(ar.read_text() + "\nUNUSED_FOR_THIS_TEST = 1\n")
-    codeversion._parse.cache_clear()
+    codeversion.clear_caches()
     assert code_version([script]) != before
     # an unrelated module (the archive code) is not in this rule's closure
     build = pkg / "archive" / "build.py"
     after = code_version([script])
     build.write_text(build.read_text() + "\nUNUSED = 2\n")
-    codeversion._parse.cache_clear()
+    codeversion.clear_caches()
     assert code_version([script]) == after

@@ -80,11 +80,24 @@ def _parse(path: str) -> ast.Module:
 
 def normalised_source(path: str | Path) -> str:
     """``ast.dump`` of a file without docstrings and positions (comments never reach the AST)."""
-    tree = _strip_docstrings(ast.parse(Path(path).read_text(encoding="utf-8"), filename=str(path)))
+    return _normalised(str(path))
+
+
+@cache
+def _normalised(path: str) -> str:
+    tree = _strip_docstrings(ast.parse(Path(path).read_text(encoding="utf-8"), filename=path))
     return ast.dump(tree, include_attributes=False)
 
 
-def _imports(path: Path, own_name: str | None) -> set[str]:
+def clear_caches() -> None:
+    """Forget parsed sources (for a process that edits them, e.g. a test)."""
+    _parse.cache_clear()
+    _normalised.cache_clear()
+    _imports.cache_clear()
+
+
+@cache
+def _imports(path: Path, own_name: str | None) -> frozenset[str]:
     """``scintrack`` modules imported anywhere in a file (``from a import b`` also tries ``a.b``)."""
     package = None
     if own_name is not None:
@@ -104,7 +117,7 @@ def _imports(path: Path, own_name: str | None) -> set[str]:
                 base = node.module or ""
             found.add(base)
             found.update(f"{base}.{alias.name}" for alias in node.names)
-    return {name for name in found if module_file(name) is not None}
+    return frozenset(name for name in found if module_file(name) is not None)
 
 
 def _with_parents(name: str) -> set[str]:

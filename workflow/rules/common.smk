@@ -45,8 +45,8 @@ SCRIPTS = Path(workflow.basedir) / "workflow" / "scripts"
 
 
 def code(script, *modules):
-    """Version of the code a rule runs: the normalised source (AST, no comments
-    or docstrings) of its script and of every scintrack module they import."""
+    """Code version of a script: the normalised source (AST, no comments or
+    docstrings) of the script and of every scintrack module it imports."""
     return code_version([SCRIPTS / script, *modules])
 
 
@@ -99,6 +99,14 @@ DATASET_MANIFEST = paths.DATASET_MANIFEST
 AR_LUT = paths.AR_LUT
 VV_DIAGNOSTICS = paths.VV_DIAGNOSTICS
 exp_result = paths.exp_result
+
+
+def experiment_params(wc):
+    """Everything one (experiment, scenario) result depends on."""
+    try:
+        return P.experiment(config, wc.experiment, wc.scenario)
+    except KeyError as exc:
+        raise WorkflowError(str(exc).strip("'\"")) from None
 
 # --- figures and tables: registered next to their functions (scintrack.products)
 FIGURES = products("figure")

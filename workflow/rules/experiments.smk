@@ -9,13 +9,6 @@ wildcard_constraints:
     scenario=r"[^/]+",
 
 
-def _experiment_params(wc):
-    try:
-        return P.experiment(config, wc.experiment, wc.scenario)
-    except KeyError as exc:
-        raise WorkflowError(str(exc).strip("'\"")) from None
-
-
 rule tracking_shard:
     """Run every tracker of an experiment on one block of trials of one scenario."""
     input:
@@ -23,7 +16,7 @@ rule tracking_shard:
     output:
         temp("results/experiments/{experiment}/{scenario}/shard-{shard}.nc"),
     params:
-        run=lambda wc: {**_experiment_params(wc), "trials": P.shard_trials(config, wc.experiment, int(wc.shard))},
+        run=lambda wc: {**experiment_params(wc), "trials": P.shard_trials(config, wc.experiment, int(wc.shard))},
         code=code("run_tracking_shard.py"),
     wildcard_constraints:
         shard=r"\d+",
@@ -46,7 +39,7 @@ rule tracking_merge:
     output:
         "results/experiments/{experiment}/{scenario}.nc",
     params:
-        run=_experiment_params,
+        run=experiment_params,
         code=code("merge_tracking.py"),
     log:
         "logs/experiments/{experiment}/{scenario}/merge.log",
