@@ -22,8 +22,13 @@ import numpy as np
 from ..trackers import blocks
 from .window import SlidingSums
 
+#: epochs before the first M2M4 estimate (the prior is used until then) and the
+#: signal-power floor as a fraction of m2; shared by the estimators and every tracker kernel
+M2M4_MIN_EPOCHS = 10
+M2M4_FLOOR = 1e-3
 
-def m2m4(prompts: np.ndarray, axis: int = -1, floor_fraction: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
+
+def m2m4(prompts: np.ndarray, axis: int = -1, floor_fraction: float = M2M4_FLOOR) -> tuple[np.ndarray, np.ndarray]:
     """Batch (signal power, noise power) from the moments along ``axis``."""
     p2 = np.abs(prompts) ** 2
     m2 = p2.mean(axis=axis)
@@ -53,7 +58,7 @@ class StreamingM2M4:
     construction are returned.
     """
 
-    def __init__(self, n_trials: int, window: int, *, prior_signal: float, prior_noise: float, min_epochs: int = 10, floor_fraction: float = 1e-3):
+    def __init__(self, n_trials: int, window: int, *, prior_signal: float, prior_noise: float, min_epochs: int = M2M4_MIN_EPOCHS, floor_fraction: float = M2M4_FLOOR):
         self.sums = SlidingSums(n_trials, 2, window)
         self.min_epochs = min_epochs
         self.floor_fraction = floor_fraction

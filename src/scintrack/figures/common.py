@@ -56,9 +56,15 @@ def save_figure(fig, paths: Iterable[str | os.PathLike]) -> list[Path]:
 
 
 def symlog_axis(ax, linthresh: float) -> None:
-    """Symmetric-log y axis with every decade and the linear part labelled in plain numbers."""
+    """Symmetric-log y axis with plain-number tick labels: 1-2-5 steps when the
+    data span little more than a decade beyond ``linthresh``, decades otherwise
+    (matplotlib's default leaves most symlog ticks unlabelled)."""
+    import math
+
     from matplotlib.ticker import FuncFormatter, SymmetricalLogLocator
 
     ax.set_yscale("symlog", linthresh=linthresh)
-    ax.yaxis.set_major_locator(SymmetricalLogLocator(base=10, linthresh=linthresh, subs=[1.0]))
+    top = max(abs(v) for v in ax.get_ylim())
+    subs = [1.0, 2.0, 5.0] if math.log10(max(top, linthresh) / linthresh) <= 1.5 else [1.0]
+    ax.yaxis.set_major_locator(SymmetricalLogLocator(base=10, linthresh=linthresh, subs=subs))
     ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))

@@ -46,7 +46,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from ..estimators.cn0 import StreamingM2M4
+from ..estimators.cn0 import M2M4_FLOOR, M2M4_MIN_EPOCHS, StreamingM2M4
 from ..estimators.s4 import StreamingS4
 from ..models.ar import ScintillationAR
 from ..models.lut import scintillation_ar
@@ -68,8 +68,6 @@ from .base import (
 from .design import compose, design_ar, explicit_design_s4, q_qualifier
 from .registry import register
 
-M2M4_MIN_EPOCHS = 10
-M2M4_FLOOR = 1e-3
 RECORDABLE = ("theta_s", "rho_s", "s4_hat", "ar_set")
 
 

@@ -29,7 +29,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from ..estimators.cn0 import StreamingM2M4, cn0_from_powers
+from ..estimators.cn0 import M2M4_FLOOR, M2M4_MIN_EPOCHS, StreamingM2M4, cn0_from_powers
 from . import blocks
 from .base import (
     DESIGN_SCHEMA,
@@ -49,9 +49,6 @@ from .base import (
 )
 from .design import compose, design_ar, explicit_design_s4, q_qualifier
 from .registry import register
-
-M2M4_MIN_EPOCHS = 10
-M2M4_FLOOR = 1e-3
 
 
 class KfParams(NamedTuple):
