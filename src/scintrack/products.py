@@ -109,7 +109,13 @@ def products(kind: str | None = None) -> dict[str, Product]:
     return {k: p for k, p in _REGISTRY.items() if kind is None or p.kind == kind}
 
 
-def get(name: str) -> Product:
+def get(name: str, module: str | None = None) -> Product:
+    """The product ``name``; with ``module`` (its function's module, as the rules
+    pass it) only that module is imported, which keeps a render job light."""
+    if module is not None:
+        importlib.import_module(module)
+        if name in _REGISTRY and _REGISTRY[name].module == module:
+            return _REGISTRY[name]
     found = products().get(name)
     if found is None:
         raise KeyError(f"no figure or table named {name!r}; known: {', '.join(products())}")

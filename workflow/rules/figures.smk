@@ -17,6 +17,7 @@ for _name, _product in FIGURES.items():
             png=_out["png"],
         params:
             product=_name,
+            module=_product.module,
             kwargs=_product.kwargs(config),
             code=code("render_figure.py", _product.module),
         log:

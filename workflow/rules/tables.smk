@@ -15,6 +15,7 @@ for _name, _product in TABLES.items():
                for k, v in _product.outputs(config).items()},
         params:
             product=_name,
+            module=_product.module,
             code=code("render_table.py", _product.module),
         log:
             f"logs/tables/{_name}.log",

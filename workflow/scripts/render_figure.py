@@ -12,7 +12,7 @@ from scintrack.io import open_dataset
 from scintrack.products import get
 
 sm = snakemake  # noqa: F821
-product = get(sm.params.product)
+product = get(sm.params.product, sm.params.module)
 log = runlog.setup(sm.log[0], product.name)
 datasets = {name: open_dataset(path) for name, path in sm.input.items()}
 fig = product.function(*datasets.values(), **dict(sm.params.kwargs))

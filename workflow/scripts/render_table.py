@@ -11,7 +11,7 @@ from scintrack.products import get
 from scintrack.tables.common import write_table
 
 sm = snakemake  # noqa: F821
-product = get(sm.params.product)
+product = get(sm.params.product, sm.params.module)
 log = runlog.setup(sm.log[0], product.name)
 tables = product.function(*(open_dataset(path) for path in sm.input))
 missing = {k for k in sm.output.keys()} - {f"{s}_{e}" for s in tables for e in ("csv", "md")}

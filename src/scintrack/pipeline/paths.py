@@ -1,7 +1,9 @@
 """Where every dataset and result of the pipeline lives, as a function of the config.
 
 The Snakemake rules (``workflow/rules/common.smk``) and the archive/verify
-code both ask this module, so a path convention exists once.
+code both ask this module, so a path convention exists once.  The dataset
+modules (generators) are imported only where a dataset path needs its
+version, so figure and table jobs that import this module stay light.
 """
 
 from __future__ import annotations
@@ -9,9 +11,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
-
-from ..data.surrogate import surrogate_params, surrogate_version
-from ..data.synthetic import csm_training_name, csm_training_params, csm_training_version
 
 AR_LUT = "results/ar_models/ar_lut.nc"
 VV_DIAGNOSTICS = "results/vila_valls_2018/ar_diagnostics.nc"
@@ -24,6 +23,8 @@ def fmt(x: float) -> str:
 
 
 def training_path(config: Mapping[str, Any], s4: float | str) -> str:
+    from ..data.synthetic import csm_training_name, csm_training_params, csm_training_version
+
     params = csm_training_params(config, float(s4))
     return f"data/synthetic/{csm_training_name(float(s4))}/{csm_training_version(params)}.nc"
 
@@ -53,6 +54,8 @@ def trace_path(config: Mapping[str, Any], event: str) -> str:
     """The canonical (validated) trace file of an event, real or surrogate."""
     if trace_source(config) == "real":
         return f"data/traces/real/{event}.nc"
+    from ..data.surrogate import surrogate_params, surrogate_version
+
     params = surrogate_params(config, event)
     return f"data/synthetic/surrogate_{event}/{surrogate_version(params)}.nc"
 
