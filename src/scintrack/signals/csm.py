@@ -38,7 +38,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from ..estimators.s4 import s4_index  # noqa: F401  (S4 lives in estimators.s4; re-exported)
 from ..seeding import rng_for
@@ -76,6 +75,7 @@ def butterworth(tau0: float, ts_sub: float) -> tuple[np.ndarray, np.ndarray]:
             f"tau0={tau0} s is too short for the sub-sample period {ts_sub} s "
             "(cut-off above Nyquist); use a smaller Ts or a larger Nspa"
         )
+    from scipy import signal  # imported where used: keeps importing the package (DAG parsing) light
     b, a = signal.butter(2, wn)
     return b, a
 
@@ -155,6 +155,7 @@ def generate_csm(
     ts_sub = ts / nspa
     b, a = butterworth(tau0, ts_sub)
     n_sub = (n_epochs + warmup) * nspa
+    from scipy import signal  # imported where used: keeps importing the package (DAG parsing) light
     xi = signal.lfilter(b, a, _white_noise(seed, name, trials, n_sub), axis=-1)
     xi = xi[:, warmup * nspa :]
     sigma2 = 0.5 * np.mean(np.abs(xi) ** 2, axis=-1, keepdims=True)
@@ -178,6 +179,7 @@ def _filter_power(b: np.ndarray, a: np.ndarray, tau0: float, ts_sub: float) -> f
     n = int(np.ceil(40.0 * tau0 / ts_sub)) + 16
     impulse = np.zeros(n)
     impulse[0] = 1.0
+    from scipy import signal  # imported where used: keeps importing the package (DAG parsing) light
     h = signal.lfilter(b, a, impulse)
     return float(np.sum(h**2))
 
@@ -209,6 +211,8 @@ def generate_csm_profile(
     bounds = [warmup * nspa + int(round(s.start_s / ts_sub)) for s in segments]
     bounds[0] = 0
     bounds.append(n_sub)
+    from scipy import signal  # imported where used: keeps importing the package (DAG parsing) light
+
     zi = np.zeros((w.shape[0], 2), dtype=complex)
     for seg, lo, hi in zip(segments, bounds[:-1], bounds[1:]):
         if hi <= lo:

@@ -34,7 +34,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from ..estimators.s4 import window_s4  # S4 lives in estimators.s4 (re-exported here)
 
@@ -80,6 +79,7 @@ def fresnel_propagate(phase: np.ndarray, dx: float, carrier_hz: float, height_m:
 
 def detrend_phase(theta: np.ndarray, ts: float, cutoff_hz: float = 0.1) -> np.ndarray:
     """Phase high-passed by a zero-phase 6th-order Butterworth at ``cutoff_hz`` (the ISM receivers' detrending)."""
+    from scipy import signal  # imported where used: keeps importing the package (DAG parsing) light
     sos = signal.butter(6, cutoff_hz, btype="highpass", fs=1.0 / ts, output="sos")
     return signal.sosfiltfilt(sos, theta)
 
