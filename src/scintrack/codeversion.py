@@ -75,24 +75,20 @@ def _strip_docstrings(tree: ast.AST) -> ast.AST:
 
 @cache
 def _parse(path: str) -> ast.Module:
-    return ast.parse(Path(path).read_text(encoding="utf-8"), filename=path)
-
-
-def normalised_source(path: str | Path) -> str:
-    """``ast.dump`` of a file without docstrings and positions (comments never reach the AST)."""
-    return _normalised(str(path))
+    """The file's syntax tree without docstrings (parsed once; imports are unaffected by the stripping)."""
+    return _strip_docstrings(ast.parse(Path(path).read_text(encoding="utf-8"), filename=path))
 
 
 @cache
-def _normalised(path: str) -> str:
-    tree = _strip_docstrings(ast.parse(Path(path).read_text(encoding="utf-8"), filename=path))
-    return ast.dump(tree, include_attributes=False)
+def normalised_source(path: str | Path) -> str:
+    """``ast.dump`` of a file without docstrings and positions (comments never reach the AST)."""
+    return ast.dump(_parse(str(path)), include_attributes=False)
 
 
 def clear_caches() -> None:
     """Forget parsed sources (for a process that edits them, e.g. a test)."""
     _parse.cache_clear()
-    _normalised.cache_clear()
+    normalised_source.cache_clear()
     _imports.cache_clear()
 
 

@@ -169,6 +169,12 @@ def write_text(text: str | bytes, path: str | os.PathLike) -> None:
         raise
 
 
+def read_attrs(path: str | os.PathLike) -> dict[str, Any]:
+    """The global attributes of a NetCDF file, without reading its data."""
+    with xr.open_dataset(path, engine="netcdf4") as ds:
+        return dict(ds.attrs)
+
+
 def open_dataset(path: str | os.PathLike) -> xr.Dataset:
     """Open a NetCDF result fully into memory (and close the file)."""
     with xr.open_dataset(path, engine="netcdf4") as ds:

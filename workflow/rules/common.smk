@@ -80,14 +80,7 @@ def raw_trace_path(event):
 
 
 TRACE_FILES = {e: paths.trace_path(config, e) for e in RT["events"]}
-RT_RES = paths.trace_results(config)
-RT_MODELS = {e: paths.trace_models_path(config, e) for e in RT["events"]}
-RT_DIAG = paths.trace_diagnostics_path(config)
-RT_STATIC = {e: paths.trace_static_path(config, e) for e in RT["events"]}
-RT_DYNAMICS = {e: paths.trace_dynamics_path(config, e) for e in RT["events"]}
-
-fmt = paths.fmt
-TRAIN_S4 = [fmt(s) for s in config["ar_training"]["s4"]]
+TRAIN_S4 = [paths.fmt(s) for s in config["ar_training"]["s4"]]
 
 
 def training_path(s4):
@@ -98,7 +91,6 @@ TRAINING_SETS = [training_path(s) for s in TRAIN_S4]
 DATASET_MANIFEST = paths.DATASET_MANIFEST
 AR_LUT = paths.AR_LUT
 VV_DIAGNOSTICS = paths.VV_DIAGNOSTICS
-exp_result = paths.exp_result
 
 
 def experiment_params(wc):
@@ -108,6 +100,7 @@ def experiment_params(wc):
     except KeyError as exc:
         raise WorkflowError(str(exc).strip("'\"")) from None
 
+
 # --- figures and tables: registered next to their functions (scintrack.products)
 FIGURES = products("figure")
 TABLES = products("table")
@@ -116,8 +109,16 @@ TABLE_FILES = [f for p in TABLES.values() for f in p.outputs(config).values()]
 COMPARE_PAGE = ["tables/compare.md", "tables/compare.html"]
 FIGURE_SUMS = "figures/SHA256SUMS"
 TABLE_SUMS = "tables/SHA256SUMS"
-# paper-vs-reproduced twins (and Table I's long form) feed the comparison page
-TWINS = [f for p in TABLES.values() for k, f in p.outputs(config).items() if k.endswith("_csv") and ("_vs_paper" in k and not k.startswith("table01_") or k == "table01_ar_orders_csv")]
+
+
+def feeds_compare(key):
+    """Paper-vs-reproduced twins feed the comparison page; Table I enters by its long form instead of its twin."""
+    if key.startswith("table01_"):
+        return key == "table01_ar_orders_csv"
+    return key.endswith("_vs_paper_csv")
+
+
+TWINS = [f for p in TABLES.values() for k, f in p.outputs(config).items() if feeds_compare(k)]
 
 
 def report_section(product):
@@ -132,5 +133,4 @@ from scintrack.io import git_state
 GIT = git_state(Path(workflow.basedir))
 ARCHIVE_VERSION = version_of(SCINTRACK_VERSION, GIT)
 ARCHIVE_FILE = f"archive/{config['archive']['name']}-{ARCHIVE_VERSION}.tar.gz"
-RESULT_PARAMS = P.results(config)
-ALL_RESULTS = sorted(RESULT_PARAMS)
+ALL_RESULTS = sorted(P.results(config))

@@ -62,7 +62,7 @@ rule trace_ar_models:
     input:
         lambda wc: TRACE_FILES[wc.event],
     output:
-        f"{RT_RES}/ar_models/{{event}}.nc",
+        paths.trace_models_path(config, "{event}"),
     params:
         run=lambda wc: P.trace_models(config, wc.event),
         code=code("trace_ar_models.py"),
@@ -77,7 +77,7 @@ rule trace_diagnostics:
     input:
         **TRACE_FILES,
     output:
-        RT_DIAG,
+        paths.trace_diagnostics_path(config),
     params:
         run=P.trace_diagnostics(config),
         code=code("trace_diagnostics.py"),
@@ -91,9 +91,9 @@ rule trace_static:
     """Dynamics-free scintillation tracking with the AEKF-AR (Fig. 11, Table V)."""
     input:
         trace=lambda wc: TRACE_FILES[wc.event],
-        models=f"{RT_RES}/ar_models/{{event}}.nc",
+        models=paths.trace_models_path(config, "{event}"),
     output:
-        f"{RT_RES}/static/{{event}}.nc",
+        paths.trace_static_path(config, "{event}"),
     params:
         run=lambda wc: P.trace_static(config, wc.event),
         code=code("trace_experiment.py"),
@@ -109,10 +109,10 @@ rule trace_dynamics:
     """Every tracker on the trace plus the aeronautical dynamics (Fig. 15, Tables VI, VIII)."""
     input:
         trace=lambda wc: TRACE_FILES[wc.event],
-        models=f"{RT_RES}/ar_models/{{event}}.nc",
+        models=paths.trace_models_path(config, "{event}"),
         lut=AR_LUT,
     output:
-        f"{RT_RES}/dynamics/{{event}}.nc",
+        paths.trace_dynamics_path(config, "{event}"),
     params:
         run=lambda wc: P.trace_dynamics(config, wc.event),
         code=code("trace_experiment.py"),

@@ -18,7 +18,7 @@ from typing import Any
 import yaml
 
 from ..checksums import read_checksums
-from ..io import content_hash, open_dataset, sha256_file
+from ..io import content_hash, open_dataset, read_attrs, sha256_file
 from . import metadata
 from .tarball import SUMS, sums_text
 
@@ -47,10 +47,7 @@ def check_results_config(config: Mapping[str, Any], results: Iterable[str | Path
     """Refuse results whose recorded config hash is not the one the archived ``config`` gives."""
     from ..pipeline.consistency import mismatches
 
-    recorded = {}
-    for path in map(Path, results):
-        with open_dataset(path) as ds:
-            recorded[path.as_posix()] = ds.attrs.get("config_sha256")
+    recorded = {Path(p).as_posix(): read_attrs(p).get("config_sha256") for p in results}
     problems = mismatches(config, recorded)
     if problems:
         first = problems[0].removeprefix("CONFIG-DIFFERS ")
@@ -74,8 +71,7 @@ def collect_members(
     members: dict[str, bytes] = {}
     for path in map(Path, outputs):
         members[path.as_posix()] = path.read_bytes()
-    manifest: dict[str, Any] = {"content_sha256": {}, "sha256": {}, "included": [], "listed_only": [], "max_result_mb": max_result_mb}
-    manifest["config_sha256"] = {}
+    manifest: dict[str, Any] = {"content_sha256": {}, "config_sha256": {}, "sha256": {}, "included": [], "listed_only": [], "max_result_mb": max_result_mb}
     for path in sorted(map(Path, results)):
         rel = path.as_posix()
         ds = open_dataset(path)

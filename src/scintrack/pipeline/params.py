@@ -98,10 +98,6 @@ def shard_trials(config: Mapping[str, Any], name: str, shard: int) -> list[int]:
     return list(range(edges[shard], edges[shard + 1]))
 
 
-def experiment_shard(config: Mapping[str, Any], name: str, scenario: str, shard: int) -> dict[str, Any]:
-    return {**experiment(config, name, scenario), "trials": shard_trials(config, name, shard)}
-
-
 # --- Sec. VI-E: real traces or the surrogate -------------------------------------
 
 

@@ -227,32 +227,24 @@ KF_TRACKING_KEYS = ("amplitude", "cn0_dbhz", "cn0_window", "p0_diag", "q_jerk_hz
 class KF(DiscriminatorKF):
     """KF: fixed R = eq. (12) at the nominal C/N0."""
 
+    ADAPTIVE_R = False
     TRACKING_KEYS = KF_TRACKING_KEYS
     SCHEMA = {"q_jerk_hz2_s3": Q_JERK_SCHEMA}
 
     @classmethod
     def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> KF:
-        return cls(**cls._common(spec, context, adaptive=False))
+        return cls(**cls._common(spec, context, adaptive=cls.ADAPTIVE_R))
 
-    @staticmethod
-    def label(name: str, spec: Mapping[str, Any]) -> str:
-        return compose("KF", q_qualifier(spec))
+    @classmethod
+    def label(cls, name: str, spec: Mapping[str, Any]) -> str:
+        return compose(cls.__name__, q_qualifier(spec))
 
 
 @register("akf")
-class AKF(DiscriminatorKF):
-    """AKF: R_k = eq. (12) at the M2M4 C/N0 estimate."""
+class AKF(KF):
+    """AKF: the KF with R_k = eq. (12) at the M2M4 C/N0 estimate."""
 
-    TRACKING_KEYS = KF_TRACKING_KEYS
-    SCHEMA = {"q_jerk_hz2_s3": Q_JERK_SCHEMA}
-
-    @classmethod
-    def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> AKF:
-        return cls(**cls._common(spec, context, adaptive=True))
-
-    @staticmethod
-    def label(name: str, spec: Mapping[str, Any]) -> str:
-        return compose("AKF", q_qualifier(spec))
+    ADAPTIVE_R = True
 
 
 @register("akf_ar")
