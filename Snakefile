@@ -58,6 +58,11 @@ include: "workflow/rules/experiments.smk"
 include: "workflow/rules/real_traces.smk"
 
 
+# Zhao, Khanafseh & Pervan: the jammed SKYDEL-like GPS L1 C/A dataset (truth,
+# navigation message, IQ recording) and the results behind its figures.
+include: "workflow/rules/gps_jamming.smk"
+
+
 # Figures and tables of every paper (declared next to their functions), the
 # paper-vs-reproduced page, the checksummed bundle and its verification.
 include: "workflow/rules/figures.smk"

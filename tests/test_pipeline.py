@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -52,12 +53,18 @@ def test_results_carry_provenance_and_valid_content_hash(smoke_run):
 def test_manifest_lists_every_dataset_with_checksums(smoke_run):
     manifest = json.loads((smoke_run / "data" / "manifest.json").read_text())
     entries = manifest["datasets"]
-    assert len(entries) == 6  # 3 CSM training sets + 3 surrogate events (no real traces configured)
+    # 3 CSM training sets + 3 surrogate events (no real traces configured) + the jammed GPS scenario + its 2 IQ recordings
+    assert len(entries) == 9
     for e in entries:
         path = smoke_run / e["path"]
         assert e["sha256"] == sha256_file(path)
         assert re.fullmatch(r"v[0-9a-f]{12}", e["dataset_version"])
-        assert path.stem == e["dataset_version"]
+        assert e["dataset_version"] in (path.stem, path.parent.name)
+    recordings = [e for e in entries if e["dataset_name"] == "gps_jamming_iq"]
+    assert sorted(Path(e["path"]).name for e in recordings) == ["clean.bin", "jammed.bin"]
+    assert all(e["sidecar_sha256"] == sha256_file(smoke_run / e["sidecar"]) for e in recordings)
+    (scenario,) = [e for e in entries if e["dataset_name"] == "gps_jamming"]
+    assert scenario["params"]["prns"] == [1, 11, 28, 30] and scenario["source"].startswith("synthetic")
     csm = [e for e in entries if e["dataset_name"].startswith("csm_train")]
     surrogate = [e for e in entries if e["dataset_name"].startswith("surrogate_")]
     assert sorted(e["params"]["s4"] for e in csm) == [0.3, 0.5, 0.9]

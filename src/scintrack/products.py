@@ -30,7 +30,11 @@ PRODUCT_MODULES = (
     "scintrack.figures.vila_valls_2018_traces",
     "scintrack.tables.vila_valls_2018",
     "scintrack.tables.vila_valls_2018_traces",
+    "scintrack.figures.zhao_jamming",
 )
+
+#: Report category of each paper (``Product.paper`` -> title).
+PAPERS = {"vila_valls_2018": "Vila-Valls 2018", "zhao_jamming": "Zhao et al. (wideband jamming)"}
 
 Config = Mapping[str, Any]
 

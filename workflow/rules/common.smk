@@ -16,7 +16,7 @@ from scintrack.config import ConfigError, check_consistency, format_validation_e
 from scintrack.data.registry import expected_sha256
 from scintrack.pipeline import params as P
 from scintrack.pipeline import paths
-from scintrack.products import products
+from scintrack.products import PAPERS, products
 
 # --config values arrive as strings inside nested mappings ('15.0'); give them
 # the types they would have in a YAML config file, then validate everything.

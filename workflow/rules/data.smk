@@ -22,6 +22,8 @@ rule dataset_manifest:
     input:
         TRAINING_SETS,
         list(TRACE_FILES.values()),
+        paths.gps_dataset_path(config),
+        [v for k, v in paths.gps_iq_paths(config).items() if k.endswith("_sidecar")],
     output:
         DATASET_MANIFEST,
     params:

@@ -13,7 +13,7 @@ for _name, _product in FIGURES.items():
         input:
             **_product.inputs(config),
         output:
-            pdf=report(_out["pdf"], caption=f"../report/{_name}.rst", category="Vila-Valls 2018", subcategory=report_section(_product)),
+            pdf=report(_out["pdf"], caption=f"../report/{_name}.rst", category=PAPERS[_product.paper], subcategory=report_section(_product)),
             png=_out["png"],
         params:
             product=_name,

@@ -11,7 +11,7 @@ for _name, _product in TABLES.items():
         input:
             **_product.inputs(config),
         output:
-            **{k: (report(v, caption=f"../report/{_name}.rst", category="Vila-Valls 2018", subcategory=report_section(_product)) if k.endswith("_csv") else v)
+            **{k: (report(v, caption=f"../report/{_name}.rst", category=PAPERS[_product.paper], subcategory=report_section(_product)) if k.endswith("_csv") else v)
                for k, v in _product.outputs(config).items()},
         params:
             product=_name,

@@ -19,6 +19,13 @@ FIELDS = ("dataset_name", "dataset_version", "generator", "generator_version", "
 
 
 def manifest_entry(path: str | Path) -> dict:
+    """A dataset's entry from its NetCDF attributes, or from the JSON sidecar of a binary recording."""
+    if Path(path).suffix == ".json":
+        attrs = json.loads(Path(path).read_text())
+        entry = {key: attrs.get(key) for key in FIELDS}
+        entry.update(path=str(Path(path).with_name(attrs["data_file"])), sha256=attrs["sha256"], content_sha256=attrs["sha256"],
+                     sidecar=str(path), sidecar_sha256=sha256_file(path))
+        return entry
     with xr.open_dataset(path, engine="netcdf4") as ds:
         attrs = dict(ds.attrs)
     entry = {key: attrs.get(key) for key in FIELDS}

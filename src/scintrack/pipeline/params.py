@@ -149,6 +149,30 @@ def trace_dynamics(config: Mapping[str, Any], event: str) -> dict[str, Any]:
     return {**_trace_experiment(config, event, rt["trackers"]), "rmse_start_s": float(rt["rmse_start_s"]), "lut": ar_lut(config)}
 
 
+# --- Zhao et al.: jammed GPS L1 C/A -------------------------------------------------
+
+
+def gps_dataset(config: Mapping[str, Any]) -> dict[str, Any]:
+    from ..data.gps_jamming import gps_jamming_params
+
+    return gps_jamming_params(config)
+
+
+def gps_iq(config: Mapping[str, Any]) -> dict[str, Any]:
+    from ..data.gps_iq import iq_params
+
+    return iq_params(config)
+
+
+def zhao_cn0(config: Mapping[str, Any]) -> dict[str, Any]:
+    g = config["gps_jamming"]
+    return {"dataset": gps_dataset(config), "seed": int(config["seed"]), **dict(g["cn0_estimate"])}
+
+
+def zhao_spectrum(config: Mapping[str, Any]) -> dict[str, Any]:
+    return {"iq": gps_iq(config), "welch_nperseg": int(config["gps_jamming"]["welch_nperseg"])}
+
+
 def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     """Every result file of the default run -> the params it depends on."""
     out: dict[str, dict[str, Any]] = {paths.AR_LUT: ar_lut(config), paths.VV_DIAGNOSTICS: ar_diagnostics(config)}
@@ -160,4 +184,6 @@ def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
         out[paths.trace_models_path(config, event)] = trace_models(config, event)
         out[paths.trace_static_path(config, event)] = trace_static(config, event)
         out[paths.trace_dynamics_path(config, event)] = trace_dynamics(config, event)
+    out[paths.ZHAO_CN0] = zhao_cn0(config)
+    out[paths.ZHAO_SPECTRUM] = zhao_spectrum(config)
     return dict(sorted(out.items()))

@@ -78,3 +78,31 @@ def trace_static_path(config: Mapping[str, Any], event: str) -> str:
 
 def trace_dynamics_path(config: Mapping[str, Any], event: str) -> str:
     return f"{trace_results(config)}/dynamics/{event}.nc"
+
+
+# --- Zhao et al.: the jammed GPS L1 C/A dataset and its results ------------------
+
+ZHAO_RESULTS = "results/zhao_jamming"
+ZHAO_CN0 = f"{ZHAO_RESULTS}/cn0_estimates.nc"
+ZHAO_SPECTRUM = f"{ZHAO_RESULTS}/iq_spectrum.nc"
+
+
+def gps_dataset_path(config: Mapping[str, Any]) -> str:
+    from ..data.gps_jamming import NAME, gps_jamming_params, gps_jamming_version
+
+    return f"data/synthetic/{NAME}/{gps_jamming_version(gps_jamming_params(config))}.nc"
+
+
+IQ_SEGMENTS = ("clean", "jammed")
+
+
+def gps_iq_paths(config: Mapping[str, Any]) -> dict[str, str]:
+    """The IQ recordings (int16 interleaved I/Q) of the clean and jammed segments and their JSON sidecars."""
+    from ..data.gps_iq import NAME, iq_params, iq_version
+
+    folder = f"data/synthetic/{NAME}/{iq_version(iq_params(config))}"
+    out = {}
+    for seg in IQ_SEGMENTS:
+        out[f"{seg}_data"] = f"{folder}/{seg}.bin"
+        out[f"{seg}_sidecar"] = f"{folder}/{seg}.bin.json"
+    return out

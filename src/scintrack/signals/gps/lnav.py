@@ -20,8 +20,11 @@ IS-GPS-200 Rev D, Sec. 20.3 (layout of the reference notes, ``gps-lnav-mm.md`` S
   message carries.  Reserved bits of subframe 1 are sent as zeros (documented
   filler; the spec leaves their content open).
 
-Subframes 4 and 5 (almanac and other pages) and the scheduling of data-set
-cutovers and uploads are not here yet.
+The TLM/HOW header (:func:`header_bits`) and the generic field packing
+(:func:`pack_fields`, :func:`unpack_fields`) are shared with subframes 4 and 5,
+whose 25 pages are in :mod:`scintrack.signals.gps.lnav_pages`; the whole
+transmitted stream with data-set cutovers and uploads is in
+:mod:`scintrack.signals.gps.message`.
 """
 
 from __future__ import annotations
@@ -183,13 +186,12 @@ def how_tow(t0: int) -> int:
     return ((t0 + 6) // 6) % 100800
 
 
-def source_bits(
-    t0: int, fields: Mapping[str, float], *, tlm_message: int = 0, integrity: int = 0, alert: int = 0, anti_spoof: int = 1,
+def header_bits(
+    t0: int, *, tlm_message: int = 0, integrity: int = 0, alert: int = 0, anti_spoof: int = 1,
 ) -> list[int]:
-    """The 300 source bits of the subframe (1, 2 or 3) starting at ``t0``, parity positions left 0."""
-    sf = subframe_id(t0)
-    if sf not in FIELDS:
-        raise ValueError(f"t0 = {t0} s starts subframe {sf}; only subframes 1-3 are encoded here")
+    """300 source bits of the subframe starting at ``t0`` with only the TLM and HOW filled (all other bits 0)."""
+    if t0 % 6 or not 0 <= t0 < 604800:
+        raise ValueError(f"t0 = {t0}: a subframe starts at a multiple of 6 s within the week [0, 604800)")
     bits = [0] * SUBFRAME_BITS
     _put(bits, 1, 8, PREAMBLE)
     _put(bits, 9, 14, tlm_message)
@@ -197,13 +199,40 @@ def source_bits(
     _put(bits, 31, 17, how_tow(t0))
     _put(bits, 48, 1, alert)
     _put(bits, 49, 1, anti_spoof)
-    _put(bits, 50, 3, sf)
-    missing = sorted(set(FIELDS[sf]) - set(fields))
+    _put(bits, 50, 3, subframe_id(t0))
+    return bits
+
+
+def pack_fields(bits: list[int], table: Mapping[str, Field], values: Mapping[str, float], where: str = "subframe") -> None:
+    """Write every field of ``table`` from ``values`` (spec units; unscaled unsigned fields as integers) into ``bits``."""
+    missing = sorted(set(table) - set(values))
     if missing:
-        raise ValueError(f"subframe {sf}: missing fields {missing}")
-    for name, field in FIELDS[sf].items():
-        raw = int(fields[name]) if field.scale == 0 and not field.signed else quantise(float(fields[name]), field)
+        raise ValueError(f"{where}: missing fields {missing}")
+    for name, field in table.items():
+        raw = int(values[name]) if field.scale == 0 and not field.signed else quantise(float(values[name]), field)
+        if not 0 <= raw < 1 << field.bits:
+            raise ValueError(f"{where}: {name} = {values[name]!r} does not fit in {field.bits} bits")
         _pack(bits, field, raw)
+
+
+def unpack_fields(source: Sequence[int], table: Mapping[str, Field]) -> dict[str, float]:
+    """Fields of ``table`` read from source bits: integers for unscaled unsigned fields, spec units otherwise."""
+    out: dict[str, float] = {}
+    for name, field in table.items():
+        raw = _unpack(source, field)
+        out[name] = raw if field.scale == 0 and not field.signed else dequantise(raw, field)
+    return out
+
+
+def source_bits(
+    t0: int, fields: Mapping[str, float], *, tlm_message: int = 0, integrity: int = 0, alert: int = 0, anti_spoof: int = 1,
+) -> list[int]:
+    """The 300 source bits of the subframe (1, 2 or 3) starting at ``t0``, parity positions left 0."""
+    sf = subframe_id(t0)
+    if sf not in FIELDS:
+        raise ValueError(f"t0 = {t0} s starts subframe {sf}; only subframes 1-3 are encoded here")
+    bits = header_bits(t0, tlm_message=tlm_message, integrity=integrity, alert=alert, anti_spoof=anti_spoof)
+    pack_fields(bits, FIELDS[sf], fields, where=f"subframe {sf}")
     return bits
 
 
@@ -237,7 +266,5 @@ def read_fields(source: Sequence[int]) -> dict[str, float]:
     """Header and clock/ephemeris fields of a decoded subframe 1-3, in the spec's units."""
     sf = _get(source, 50, 3)
     out: dict[str, float] = {"preamble": _get(source, 1, 8), "tow17": _get(source, 31, 17), "subframe_id": sf}
-    for name, field in FIELDS.get(sf, {}).items():
-        raw = _unpack(source, field)
-        out[name] = raw if field.scale == 0 and not field.signed else dequantise(raw, field)
+    out.update(unpack_fields(source, FIELDS.get(sf, {})))
     return out

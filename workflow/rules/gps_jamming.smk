@@ -1,0 +1,72 @@
+# Zhao, Khanafseh & Pervan: the jammed SKYDEL-like GPS L1 C/A dataset (truth
+# per satellite and code epoch, versioned like every synthetic dataset), its
+# IQ recording, and the results behind the dataset's figures.
+
+GJ = config["gps_jamming"]
+GPS_DATASET = paths.gps_dataset_path(config)
+GPS_IQ = paths.gps_iq_paths(config)
+
+
+rule gps_jamming_dataset:
+    """Truth of the jammed GPS scenario: geometry from real ephemerides, clock, LNAV message, C/N0 profile."""
+    input:
+        ephemerides=repo_path(GJ["ephemerides"]),
+    output:
+        ensure(GPS_DATASET, non_empty=True),
+    params:
+        dataset=P.gps_dataset(config),
+        code=code("make_gps_jamming.py"),
+    log:
+        "logs/data/gps_jamming.log",
+    benchmark:
+        "results/benchmarks/gps_jamming_dataset.tsv"
+    script:
+        "../scripts/make_gps_jamming.py"
+
+
+rule gps_iq_recording:
+    """SKYDEL-like complex baseband recording (int16 I/Q) of a clean and a jammed segment, with a JSON sidecar."""
+    input:
+        dataset=GPS_DATASET,
+    output:
+        **{k: ensure(v, non_empty=True) for k, v in GPS_IQ.items()},
+    params:
+        iq=P.gps_iq(config),
+        code=code("make_gps_iq.py"),
+    log:
+        "logs/data/gps_iq.log",
+    benchmark:
+        "results/benchmarks/gps_iq_recording.tsv"
+    script:
+        "../scripts/make_gps_iq.py"
+
+
+rule zhao_cn0_estimates:
+    """C/N0 over the scenario estimated from correlator outputs (M2M4), beside the truth (Figs. 5 and 8)."""
+    input:
+        dataset=GPS_DATASET,
+    output:
+        ensure(paths.ZHAO_CN0, non_empty=True),
+    params:
+        cn0=P.zhao_cn0(config),
+        code=code("zhao_cn0.py"),
+    log:
+        "logs/zhao_jamming/cn0_estimates.log",
+    script:
+        "../scripts/zhao_cn0.py"
+
+
+rule zhao_iq_spectrum:
+    """Welch spectra of the clean and jammed segments of the IQ recording (Figs. 5 and 8)."""
+    input:
+        **GPS_IQ,
+        dataset=GPS_DATASET,
+    output:
+        ensure(paths.ZHAO_SPECTRUM, non_empty=True),
+    params:
+        spectrum=P.zhao_spectrum(config),
+        code=code("zhao_iq_spectrum.py"),
+    log:
+        "logs/zhao_jamming/iq_spectrum.log",
+    script:
+        "../scripts/zhao_iq_spectrum.py"
