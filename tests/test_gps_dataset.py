@@ -122,3 +122,12 @@ def test_wrong_ephemerides_checksum_is_named(tmp_path):
     bad.write_bytes(project_file(params["ephemerides"]).read_bytes()[:-10])
     with pytest.raises(ValueError, match="sha256.*registry"):
         build(params, bad)
+
+
+def test_almanac_pages_carry_every_satellite_of_the_file(ds):
+    # subframe 5 pages 1-24 carry the almanac of SV = page (all 32 PRNs are in the file): no dummy SV ID 0
+    sid, page = ds.subframe_id.values, ds.page.values
+    sf5 = (sid == 5) & (page >= 1) & (page <= 24)
+    assert sf5.any()
+    for k in range(ds.sizes["sv"]):
+        assert np.array_equal(ds.sv_id.isel(sv=k).values[sf5], page[sf5])

@@ -64,7 +64,9 @@ def test_every_configured_tracker_builds_to_its_class(config):
     from scintrack.models.ar import ScintillationAR
 
     trace_set = ScintillationAR.from_coefs([0.99], [1.8, -0.9, 0.05], 0.05, 1e-3, 1e-3, s4=0.7)
-    classes = {"pll": PLL, "kf": KF, "akf": AKF, "akf_ar": AKFAR, "aekf_ar": AEKFAR}
+    from scintrack.trackers.mm_kf import MMKF
+
+    classes = {"pll": PLL, "kf": KF, "akf": AKF, "akf_ar": AKFAR, "aekf_ar": AEKFAR, "mm_kf": MMKF}
     for name, spec in config["trackers"].items():
         tracker = registry.build(name, spec, _context(config, trace_set=trace_set))
         assert type(tracker) is classes[spec["type"]], name
@@ -143,7 +145,7 @@ def test_unknown_type_is_one_line_naming_the_key_and_the_known_types(config):
     msg = str(exc.value)
     assert "\n" not in msg
     assert msg.startswith("invalid config value at 'trackers.foo.type': unknown tracker type 'costas'")
-    assert "aekf_ar, akf, akf_ar, kf, pll" in msg
+    assert "aekf_ar, akf, akf_ar, kf, mm_kf, pll" in msg
     assert msg.endswith("fix it in config/x.yaml or your --configfile/--config overlay")
 
 

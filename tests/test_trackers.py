@@ -190,6 +190,7 @@ def test_compiled_kernels_match_textbook_references():
             ScintillationAR.from_coefs([0.99], gamma, 0.05, 4e-4, 1e-4, s4=0.9)]
     trackers = [
         PLL(ts=TS, bandwidth_hz=10.0),
+        PLL(ts=TS, bandwidth_hz=10.0, discriminator="atan"),
         DiscriminatorKF(ts=TS, q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4)),
         DiscriminatorKF(ts=TS, q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4), adaptive_r=True),
         DiscriminatorKF(ts=TS, q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4), adaptive_r=True, ar_coefs=np.array([0.99]), ar_sigma2=4e-4),
@@ -198,14 +199,14 @@ def test_compiled_kernels_match_textbook_references():
         AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=sets[1:2], nominal_noise=0.2, fold_mirror=True, record=("rho_s", "theta_s")),
         AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=sets[2:], p_state=1, q_state=3, nominal_noise=0.2, record=("rho_s",)),
     ]
-    tol = {"s4_hat": dict(rtol=1e-6, atol=1e-7), "ar_set": dict(rtol=0, atol=0), "R": dict(rtol=1e-10, atol=0), "theta_s": dict(rtol=0, atol=1e-8), "rho_s": dict(rtol=0, atol=1e-8)}
+    tol = {"frequency_hz": dict(rtol=1e-10, atol=1e-9), "s4_hat": dict(rtol=1e-6, atol=1e-7), "ar_set": dict(rtol=0, atol=0), "R": dict(rtol=1e-10, atol=0), "theta_s": dict(rtol=0, atol=1e-8), "rho_s": dict(rtol=0, atol=1e-8)}
     for tr in trackers:
         fast, ref = tr.run(y, init), tr.reference(y, init)
         np.testing.assert_allclose(fast.theta_d, ref.theta_d, rtol=1e-10, atol=1e-9, err_msg=type(tr).__name__)
         assert set(fast.extras) == set(ref.extras)
         for key in fast.extras:
             np.testing.assert_allclose(fast.extras[key], ref.extras[key], err_msg=f"{type(tr).__name__} {key}", **tol[key])
-    switched = trackers[4].run(y, init).extras["ar_set"]
+    switched = trackers[5].run(y, init).extras["ar_set"]
     assert len(np.unique(switched)) > 1  # the adaptive filter did switch sets
     e = unwrapped_error(trackers[0].run(y, init).theta_d, thd)
     np.testing.assert_array_equal(count_cycle_slips(e), count_cycle_slips_numpy(e))
@@ -269,3 +270,25 @@ def test_shard_carries_tracker_labels_as_an_attribute_only(config):
     stripped = ds.copy()
     del stripped.attrs["tracker_labels"]
     assert content_hash(ds) == content_hash(stripped)
+
+
+def test_costas_discriminator_ignores_the_data_bit_and_the_pll_tracks_through_bit_flips():
+    from scintrack.trackers import blocks
+
+    rng = np.random.default_rng(5)
+    phase = rng.uniform(-1.2, 1.2, 200)
+    for err in (-1.0, -0.3, 0.0, 0.4, 1.2):
+        y = np.exp(1j * (phase + err))
+        assert np.allclose(blocks.atan_discriminator_ufunc(y.real, y.imag, phase), err)
+        assert np.allclose(blocks.atan_discriminator_ufunc(-y.real, -y.imag, phase), err)  # d = -1: same error
+    # 40 dB-Hz, 1 ms, random bits every 20 ms: the Costas loop stays locked (mod pi), the ATAN2 loop does not
+    ts, n = 1e-3, 4000
+    bits = np.repeat(rng.choice([-1.0, 1.0], n // 20), 20)
+    theta = 2 * np.pi * 3.0 * ts * np.arange(n)
+    noise = (rng.standard_normal((4, n)) + 1j * rng.standard_normal((4, n))) * np.sqrt(1 / (2 * 1e4 * ts))
+    y = bits * np.exp(1j * theta) + noise
+    init = TrackInit(phase=np.zeros(4), doppler_hz=np.full(4, 3.0), rate_hz_s=np.zeros(4))
+    costas = PLL(ts=ts, bandwidth_hz=10.0, discriminator="atan").run(y, init)
+    err = np.angle(np.exp(2j * (costas.theta_d - theta))) / 2  # modulo pi
+    assert np.sqrt(np.mean(err[:, 500:] ** 2)) < 0.1
+    assert np.allclose(costas.extras["frequency_hz"][:, 500:].mean(), 3.0, atol=0.2)

@@ -31,6 +31,8 @@ PRODUCT_MODULES = (
     "scintrack.tables.vila_valls_2018",
     "scintrack.tables.vila_valls_2018_traces",
     "scintrack.figures.zhao_jamming",
+    "scintrack.figures.zhao_receiver",
+    "scintrack.tables.zhao_jamming",
 )
 
 #: Report category of each paper (``Product.paper`` -> title).

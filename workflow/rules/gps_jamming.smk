@@ -70,3 +70,56 @@ rule zhao_iq_spectrum:
         "logs/zhao_jamming/iq_spectrum.log",
     script:
         "../scripts/zhao_iq_spectrum.py"
+
+
+# --- the receiver: Costas PLL, MM Kalman filter with bit prediction, DLL, positioning
+
+
+rule zhao_channel:
+    """One satellite channel over all Monte Carlo trials: PLL, MM filter per bit-prior strategy, DLL."""
+    input:
+        dataset=GPS_DATASET,
+        ephemerides=repo_path(GJ["ephemerides"]),
+    output:
+        ensure(paths.zhao_channel("{prn}"), non_empty=True),
+    params:
+        receiver=P.zhao_receiver(config),
+        code=code("zhao_channel.py"),
+    log:
+        "logs/zhao_jamming/channel_prn{prn}.log",
+    benchmark:
+        "results/benchmarks/zhao_channel/prn{prn}.tsv"
+    script:
+        "../scripts/zhao_channel.py"
+
+
+rule zhao_receiver:
+    """Positions at 1 Hz from the channels' pseudoranges, ENU errors, and the per-variant metrics."""
+    input:
+        dataset=GPS_DATASET,
+        channels=[paths.zhao_channel(p) for p in GJ["prns"]],
+    output:
+        ensure(paths.ZHAO_RECEIVER, non_empty=True),
+    params:
+        receiver=P.zhao_receiver(config),
+        code=code("zhao_receiver.py"),
+    log:
+        "logs/zhao_jamming/receiver.log",
+    script:
+        "../scripts/zhao_receiver.py"
+
+
+rule zhao_cn0_sweep_point:
+    """Every channel with the jammed C/N0 set to one value of the sweep (where each variant breaks)."""
+    input:
+        dataset=GPS_DATASET,
+        ephemerides=repo_path(GJ["ephemerides"]),
+    output:
+        ensure(paths.zhao_sweep_point("{cn0}"), non_empty=True),
+    params:
+        receiver=P.zhao_receiver(config),
+        code=code("zhao_sweep_point.py"),
+    log:
+        "logs/zhao_jamming/cn0_sweep_{cn0}.log",
+    script:
+        "../scripts/zhao_sweep_point.py"

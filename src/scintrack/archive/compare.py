@@ -17,7 +17,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-PAPERS = {"vila_valls_2018": "Vilà-Valls et al. 2018, IEEE TAES 54(4), doi:10.1109/TAES.2018.2798480"}
+PAPERS = {
+    "vila_valls_2018": "Vilà-Valls et al. 2018, IEEE TAES 54(4), doi:10.1109/TAES.2018.2798480",
+    "zhao_jamming": "Zhao, Khanafseh & Pervan, MM Kalman filter through wideband jamming (synthetic SKYDEL-like data)",
+}
 
 
 def _verdict(row) -> str:

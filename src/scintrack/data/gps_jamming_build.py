@@ -116,6 +116,7 @@ def build(params: Mapping[str, Any], path: str | Path) -> xr.Dataset:
     cn0_jammed = float(jamming.effective_cn0_dbhz(cn0_clean, float(jam["js_db"]), kappa))
 
     in_bit: list[int] = []
+    nav_bit0: list[int] = []
     per_sv: dict[str, list[np.ndarray]] = {k: [] for k in ("receive_time", "pseudorange", "carrier_phase", "doppler", "cn0", "bit", "range", "rx_clock", "sat_clock", "iono", "tropo")}
     messages = []
     uploads = [message.Upload(int(u["prn"]), t0 + float(u["time_s"])) for u in params["uploads"]]
@@ -140,13 +141,14 @@ def build(params: Mapping[str, Any], path: str | Path) -> xr.Dataset:
         carrier = -(pseudorange - 2.0 * truth["iono_m"]) / LAMBDA_L1 + phi0[k]
         atmos_rate = np.gradient(truth["tropo_m"] - truth["iono_m"], receive_time)
         doppler = -(truth["range_rate_m_s"] + C * (rx_drift - truth["sat_clock_drift"]) + atmos_rate) / LAMBDA_L1
-        msg = message.build_message(groups[prn], header, prn, week, t0 - lead, t0 + duration + 1.0, uploads=[u for u in uploads if u.prn == prn])
+        msg = message.build_message(ephs, header, prn, week, t0 - lead, t0 + duration + 1.0, uploads=[u for u in uploads if u.prn == prn])
         m_msg = int(round(msg.t0 * 1000.0))
         idx = (m - m_msg) // 20
         if idx[0] < 0 or idx[-1] >= len(msg.bits):
             raise AssertionError(f"PRN {prn}: message does not cover the scenario")  # build_message spans [t_start, t_end]
         messages.append(msg)
         in_bit.append(int((m[0] - m_msg) % 20))
+        nav_bit0.append(int((m[0] - m_msg) // 20))
         per_sv["receive_time"].append(receive_time)
         per_sv["pseudorange"].append(pseudorange)
         per_sv["carrier_phase"].append(carrier)
@@ -161,6 +163,7 @@ def build(params: Mapping[str, Any], path: str | Path) -> xr.Dataset:
 
     ds = _assemble(params, win, header, rx, per_sv, messages, kappa, cn0_jammed, path)
     ds["first_epoch_in_bit"] = (("sv",), np.array(in_bit, dtype=np.int8), {"long_name": "code period of epoch 0 within its 20-ms data bit (0 = bit edge)"})
+    ds["nav_bit_of_epoch0"] = (("sv",), np.array(nav_bit0, dtype=np.int32), {"long_name": "index in nav_bits of the data bit that epoch 0 carries"})
     return ds
 
 

@@ -173,6 +173,17 @@ def zhao_spectrum(config: Mapping[str, Any]) -> dict[str, Any]:
     return {"iq": gps_iq(config), "welch_nperseg": int(config["gps_jamming"]["welch_nperseg"])}
 
 
+def zhao_receiver(config: Mapping[str, Any]) -> dict[str, Any]:
+    """The receiver experiment: the dataset, the receiver settings and the specs of its two trackers."""
+    rc = dict(config["zhao_receiver"])
+    return {
+        "dataset": gps_dataset(config),
+        "seed": int(config["seed"]),
+        "receiver": rc,
+        "trackers": tracker_specs(config, [rc["pll"], rc["mm"]]),
+    }
+
+
 def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     """Every result file of the default run -> the params it depends on."""
     out: dict[str, dict[str, Any]] = {paths.AR_LUT: ar_lut(config), paths.VV_DIAGNOSTICS: ar_diagnostics(config)}
@@ -186,4 +197,9 @@ def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
         out[paths.trace_dynamics_path(config, event)] = trace_dynamics(config, event)
     out[paths.ZHAO_CN0] = zhao_cn0(config)
     out[paths.ZHAO_SPECTRUM] = zhao_spectrum(config)
+    for prn in config["gps_jamming"]["prns"]:
+        out[paths.zhao_channel(prn)] = zhao_receiver(config)
+    out[paths.ZHAO_RECEIVER] = zhao_receiver(config)
+    for cn0 in config["zhao_receiver"]["cn0_sweep"]["cn0_dbhz"]:
+        out[paths.zhao_sweep_point(cn0)] = zhao_receiver(config)
     return dict(sorted(out.items()))

@@ -85,6 +85,17 @@ def trace_dynamics_path(config: Mapping[str, Any], event: str) -> str:
 ZHAO_RESULTS = "results/zhao_jamming"
 ZHAO_CN0 = f"{ZHAO_RESULTS}/cn0_estimates.nc"
 ZHAO_SPECTRUM = f"{ZHAO_RESULTS}/iq_spectrum.nc"
+ZHAO_RECEIVER = f"{ZHAO_RESULTS}/receiver.nc"
+
+
+def zhao_sweep_point(cn0: float | str) -> str:
+    """One point of the jammed-C/N0 sweep (``cn0`` may be the wildcard ``"{cn0}"``)."""
+    return f"{ZHAO_RESULTS}/cn0_sweep/cn0-{cn0 if isinstance(cn0, str) else fmt(cn0)}.nc"
+
+
+def zhao_channel(prn: int | str) -> str:
+    """One satellite channel's result (``prn`` may be the wildcard ``"{prn}"``)."""
+    return f"{ZHAO_RESULTS}/channels/prn{prn}.nc"
 
 
 def gps_dataset_path(config: Mapping[str, Any]) -> str:

@@ -65,3 +65,12 @@ VILA_VALLS_2018_TABLE_VIII = {
     ("event2", "L1"): (0, 0, 0, 0, 0), ("event2", "L2"): (2, 1, 0, 0, 0), ("event2", "L5"): (2, 0, 0, 0, 0),
     ("event3", "L1"): (2, 0, 1, 0, 0), ("event3", "L2"): (3, 2, 2, 0, 0), ("event3", "L5"): (3, 3, 2, 0, 0),
 }
+
+# Zhao, Khanafseh & Pervan, Sec. IV: ENU mean error and standard deviation [m] of one 4-minute run;
+# clean (PLL-aided DLL) and jammed at ~15 dB-Hz (MM-aided DLL). The paper gives magnitudes without signs.
+ZHAO_ENU = {
+    ("clean", "mean", "east"): 3.9, ("clean", "mean", "north"): 0.2, ("clean", "mean", "up"): 0.5,
+    ("clean", "std", "east"): 13.0, ("clean", "std", "north"): 23.0, ("clean", "std", "up"): 50.0,
+    ("jammed", "mean", "east"): 5.0, ("jammed", "mean", "north"): 1.8, ("jammed", "mean", "up"): 1.9,
+    ("jammed", "std", "east"): 16.0, ("jammed", "std", "north"): 32.0, ("jammed", "std", "up"): 63.0,
+}

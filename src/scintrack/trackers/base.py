@@ -29,11 +29,18 @@ from . import blocks
 
 @dataclass
 class TrackInit:
-    """Acquisition output handed to every tracker (one value per trial)."""
+    """Acquisition output handed to every tracker (one value per trial).
+
+    ``bit_prior`` (optional): probability that the data level is d = +1 at each
+    observation, shape (epochs,) or (trials, epochs); None means a pilot
+    signal (d = +1 known).  Read by the multiple-model tracker
+    (:mod:`.mm_kf`); the other trackers ignore it.
+    """
 
     phase: np.ndarray
     doppler_hz: np.ndarray
     rate_hz_s: np.ndarray
+    bit_prior: np.ndarray | None = None
 
 
 @dataclass

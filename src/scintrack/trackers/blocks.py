@@ -11,7 +11,8 @@ Vila-Valls et al. 2018 (Sec. IV-V) equations and the block that implements them:
   [cos(theta_d + theta_s), sin(theta_d + theta_s)]`` in closed form:
   :func:`iq_update`;
 * ATAN2 discriminator ``atan2(Q, I)`` of the prompt against the replica phase:
-  :func:`atan2_discriminator`;
+  :func:`atan2_discriminator`; its data-insensitive (Costas) form ``atan(Q/I)``:
+  :func:`atan_discriminator`;
 * eq. (12) discriminator variance at ``x = 2 C/N0 Ts``: :func:`atan_variance`;
 * M2M4 signal/noise split (GNSS-SDR ``cn0_m2m4_estimator``):
   :func:`m2m4_signal_power`, :func:`m2m4_split`; C/N0 from the powers:
@@ -80,6 +81,20 @@ def _atan2_discriminator(yr, yi, phase):
 
 atan2_discriminator = njit(cache=True)(_atan2_discriminator)
 atan2_discriminator_ufunc = _Ufunc(_atan2_discriminator, _F8_3)
+
+
+def _atan_discriminator(yr, yi, phase):
+    """Costas (two-quadrant) ``atan(Q/I)``: insensitive to the data bit, error in (-pi/2, pi/2]."""
+    c_, s_ = math.cos(phase), math.sin(phase)
+    i_ = yr * c_ + yi * s_
+    q_ = yi * c_ - yr * s_
+    if i_ == 0.0:
+        return 0.5 * math.pi if q_ >= 0.0 else -0.5 * math.pi
+    return math.atan(q_ / i_)
+
+
+atan_discriminator = njit(cache=True)(_atan_discriminator)
+atan_discriminator_ufunc = _Ufunc(_atan_discriminator, _F8_3)
 
 
 # --- M2M4 and C/N0 ---------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""Third-order PLL with an ATAN2 discriminator (the paper's "PLL"); type ``pll``.
+"""Third-order PLL with an ATAN2 (pilot) or Costas ATAN (data) discriminator; type ``pll``.
 
 Loop filter (Kaplan & Hegarty; reference notes §3.1), bilinear integrators,
 discriminator ``e_k`` in rad, frequency command in rad/s:
@@ -13,7 +13,11 @@ replica phase by ``f_k T``.  The phase estimate at epoch k is the NCO phase
 used to correlate that epoch (the prediction); the PLL tracks the total phase
 ``theta_d + theta_s``, as every loop without a scintillation model does.
 
-Config: ``{type: pll, bandwidth_hz: 10}`` (default ``tracking.pll_bandwidth_hz``).
+Config: ``{type: pll, bandwidth_hz: 10}`` (default ``tracking.pll_bandwidth_hz``);
+``discriminator: atan`` selects the two-quadrant Costas discriminator
+``atan(Q/I)`` for signals with data bits (Zhao et al.'s baseline; the error
+is then ambiguous by pi); the default ``atan2`` is the Vila-Valls pilot loop.
+``extras["frequency_hz"]`` is the loop's frequency command ``v / 2 pi``.
 """
 
 from __future__ import annotations
@@ -38,6 +42,7 @@ class PllParams(NamedTuple):
     w0: np.ndarray  # (trials,) rad/s^2
     ts: float
     bandwidth_hz: float
+    costas: bool
 
 
 @njit(cache=True)
@@ -45,13 +50,18 @@ def pll_kernel(y, prm):
     n, k = y.shape
     k3, k2, k1 = blocks.pll_constants(prm.bandwidth_hz, prm.ts)
     out = np.empty((n, k))
+    freq = np.empty((n, k))
     for t in range(n):
         phase, v, w = prm.phase0[t], prm.v0[t], prm.w0[t]
         for i in range(k):
             out[t, i] = phase
-            e = blocks.atan2_discriminator(y[t, i].real, y[t, i].imag, phase)
+            freq[t, i] = v / (2.0 * np.pi)
+            if prm.costas:
+                e = blocks.atan_discriminator(y[t, i].real, y[t, i].imag, phase)
+            else:
+                e = blocks.atan2_discriminator(y[t, i].real, y[t, i].imag, phase)
             phase, v, w = blocks.pll_step(phase, v, w, e, k3, k2, k1, prm.ts)
-    return out
+    return out, freq
 
 
 @register("pll")
@@ -59,27 +69,35 @@ def pll_kernel(y, prm):
 class PLL:
     ts: float
     bandwidth_hz: float
+    discriminator: str = "atan2"
 
     TRACKING_KEYS = ("pll_bandwidth_hz",)
-    SCHEMA = {"bandwidth_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 50, "description": "loop noise bandwidth Bn [Hz] (default: tracking.pll_bandwidth_hz)"}}
+    SCHEMA = {
+        "bandwidth_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 50, "description": "loop noise bandwidth Bn [Hz] (default: tracking.pll_bandwidth_hz)"},
+        "discriminator": {"enum": ["atan2", "atan"], "description": "atan2 (pilot, default) or atan (Costas, data-insensitive)"},
+    }
 
     @classmethod
     def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> PLL:
-        return cls(ts=context.ts, bandwidth_hz=float(spec.get("bandwidth_hz", context.tracking["pll_bandwidth_hz"])))
+        bandwidth = spec["bandwidth_hz"] if "bandwidth_hz" in spec else context.tracking["pll_bandwidth_hz"]
+        return cls(ts=context.ts, bandwidth_hz=float(bandwidth), discriminator=str(spec.get("discriminator", "atan2")))
 
     @staticmethod
     def label(name: str, spec: Mapping[str, Any]) -> str:
-        return "PLL" if "bandwidth_hz" not in spec else f"PLL (Bn = {float(spec['bandwidth_hz']):g} Hz)"
+        base = "Costas PLL" if spec.get("discriminator") == "atan" else "PLL"
+        return base if "bandwidth_hz" not in spec else f"{base} (Bn = {float(spec['bandwidth_hz']):g} Hz)"
 
     def params(self, init: TrackInit) -> PllParams:
         return PllParams(
             phase0=np.asarray(init.phase, dtype=float), v0=2 * np.pi * np.asarray(init.doppler_hz, dtype=float),
             w0=2 * np.pi * np.asarray(init.rate_hz_s, dtype=float), ts=float(self.ts), bandwidth_hz=float(self.bandwidth_hz),
+            costas=self.discriminator == "atan",
         )
 
     def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
         """Compiled loop (:func:`pll_kernel`)."""
-        return TrackOutput(theta_d=pll_kernel(np.ascontiguousarray(y, dtype=complex), self.params(init)))
+        phase, freq = pll_kernel(np.ascontiguousarray(y, dtype=complex), self.params(init))
+        return TrackOutput(theta_d=phase, extras={"frequency_hz": freq})
 
     def reference(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
         """The same loop in numpy, vectorised over trials (the blocks applied to arrays)."""
@@ -87,8 +105,13 @@ class PLL:
         k3, k2, k1 = blocks.pll_constants(prm.bandwidth_hz, prm.ts)
         phase, v, w = prm.phase0.copy(), prm.v0.copy(), prm.w0.copy()
         out = np.empty(y.shape)
+        freq = np.empty(y.shape)
         for i in range(y.shape[1]):
             out[:, i] = phase
-            e = atan2_discriminator(y[:, i], phase)
+            freq[:, i] = v / (2 * np.pi)
+            if prm.costas:
+                e = blocks.atan_discriminator_ufunc(y[:, i].real, y[:, i].imag, phase)
+            else:
+                e = atan2_discriminator(y[:, i], phase)
             phase, v, w = blocks.pll_step(phase, v, w, e, k3, k2, k1, prm.ts)
-        return TrackOutput(theta_d=out)
+        return TrackOutput(theta_d=out, extras={"frequency_hz": freq})

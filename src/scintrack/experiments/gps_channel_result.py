@@ -1,0 +1,152 @@
+"""One satellite channel of the jamming receiver as a labelled result: per-trial metrics, RMSE(t), example series, pseudoranges.
+
+Runs :func:`scintrack.experiments.gps_receiver.channel` over the trials in
+batches and keeps what the figures and tables need, not the raw 1-ms series:
+
+* per tracker (``pll`` and each MM variant) and trial: wrapped phase-error
+  RMSE and frequency-error variance in the clean and the jammed part,
+  loss-of-lock events and the fraction of jammed time in lock (detector:
+  :func:`.gps_prompts.lock_state`, running mean of |error| over
+  ``lock.window_s`` above ``lock.threshold_rad``), the fraction of wrong bit
+  decisions in the jammed part, the number of predicted and of wrongly
+  predicted bits;
+* per tracker and 20-ms epoch: the phase-error RMSE over trials;
+* per tracker, for ``figure_trial``: phase and frequency error series;
+* per tracker, trial and position epoch: the measured pseudorange
+  ``c (arrival estimate - transmit time)`` interpolated to the common
+  receiver time, with the DLL's code error.
+
+The PLL's errors are modulo pi (Costas); the MM filter's modulo 2 pi.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from ..signals.gps import ephemeris
+from ..signals.gps.orbit import C_LIGHT
+from . import gps_prompts as gp
+from .gps_receiver import channel, prior_sources
+
+CHIP_S = 1.0 / 1.023e6
+
+
+def _trackers(params: Mapping[str, Any]) -> list[str]:
+    return ["pll", *params["receiver"]["variants"]]
+
+
+def _metrics(err: np.ndarray, ferr: np.ndarray, jammed: np.ndarray, lock: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    ts = gp.BIT_MS * gp.CODE_PERIOD_S
+    locked = gp.lock_state(err, ts, float(lock["threshold_rad"]), float(lock["window_s"]))
+    return {
+        "phase_rmse_clean": np.sqrt(np.mean(err[:, ~jammed] ** 2, axis=1)),
+        "phase_rmse_jammed": np.sqrt(np.mean(err[:, jammed] ** 2, axis=1)),
+        "freq_var_clean": np.var(ferr[:, ~jammed], axis=1),
+        "freq_var_jammed": np.var(ferr[:, jammed], axis=1),
+        "lol_events": gp.loss_of_lock_events(locked),
+        "in_lock_jammed": np.mean(locked[:, jammed], axis=1),
+    }
+
+
+def _prediction_map(ds: xr.Dataset, k: int, ephs, header) -> tuple[np.ndarray, np.ndarray]:
+    """Fig. 4 arrays: the last complete frame before the start and the upload-robust prediction of the next."""
+    from ..signals.gps import bit_prediction
+
+    week, t0 = int(ds.attrs["gps_week"]), float(ds.attrs["t_start_sow"])
+    t_first = t0 + float(ds["nav_bit_time"].values[0])
+    robust = bit_prediction.robust_prediction(ephs, header, int(ds["prn"].values[k]), week, t_first + 1e-6, t0 + 30.0)
+    j = int(np.sum(ds["nav_bit_time"].values < 0.0) // 1500)  # frame containing the scenario start
+    last = ds["nav_bits"].isel(sv=k).values[(j - 1) * 1500 : j * 1500]
+    priors = bit_prediction.BitPredictor("mask", robust).priors(j)
+    return bit_prediction.prediction_map(last, priors)
+
+
+def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemerides_path: str | Path,
+                   log: Callable[..., None] = lambda *a: None, cn0_jammed_dbhz: float | None = None, trials: int | None = None) -> xr.Dataset:
+    k = int(np.flatnonzero(ds["prn"].values == prn)[0])
+    ephs = ephemeris.load(ephemerides_path)
+    header = ephemeris.read_header(ephemerides_path)
+    rc = params["receiver"]
+    n_trials = int(rc["trials"] if trials is None else trials)
+    batch = int(rc["trial_batch"])
+    names = _trackers(params)
+    onset = float(ds.attrs["jammer_onset_s"])
+    rt = ds["receive_time"].isel(sv=k).values
+    pr_true = ds["pseudorange"].isel(sv=k).values
+    if rc["corrections"]:
+        # the receiver's models are the ones the dataset used (Klobuchar from the broadcast alpha/beta, the
+        # tropospheric model): they cancel the delays exactly, i.e. a perfectly modelled atmosphere
+        pr_true = pr_true - ds["iono"].isel(sv=k).values - ds["tropo"].isel(sv=k).values
+    rate = float(rc["position_rate_hz"])
+    t_pos = np.arange(np.ceil(rt[0] * rate), np.floor(rt[-1] * rate) + 1) / rate
+    fig_trial = int(rc["figure_trial"])
+    per_trial: dict[str, list[np.ndarray]] = {}
+    sq_sum: dict[str, np.ndarray] = {}
+    example: dict[str, np.ndarray] = {}
+    pseudo: dict[str, list[np.ndarray]] = {name: [] for name in names}
+    t20 = jammed = None
+    sources = prior_sources(ds, k, rc["variants"], ephs, header, float(rc["prior_eps"]))
+    for b0 in range(0, n_trials, batch):
+        trials_b = list(range(b0, min(n_trials, b0 + batch)))
+        out = channel(ds, k, params, trials_b, sources, cn0_jammed_dbhz=cn0_jammed_dbhz)
+        start = int(out["start_epoch"])
+        n_bits = out["pll_phase_error"].shape[1]
+        if t20 is None:
+            t20 = rt[start : start + n_bits * gp.BIT_MS : gp.BIT_MS]
+            jammed = t20 >= onset
+        true_bit = (out["true_level"] < 0).astype(np.int8)
+        for name in names:
+            err, ferr = out[f"{name}_phase_error"], out[f"{name}_frequency_error"]
+            m = _metrics(err, ferr, jammed, rc["lock"])
+            if name == "pll":
+                # Costas decisions up to one global sign, fixed on the clean part
+                lvl = out["pll_level"]
+                sign = np.sign(np.sum(lvl[:, ~jammed] * out["true_level"][~jammed], axis=1, keepdims=True))
+                wrong = (lvl * sign) != out["true_level"][None, :]
+                m.update(predicted=np.zeros(len(trials_b)), prediction_wrong=np.zeros(len(trials_b)))
+            else:
+                wrong = out[f"{name}_bit_error"]
+                m.update(predicted=np.sum(out[f"{name}_predicted"][:, jammed], axis=1),
+                         prediction_wrong=np.sum(out[f"{name}_prediction_wrong"][:, jammed], axis=1))
+            m["bit_error_jammed"] = np.mean(wrong[:, jammed], axis=1)
+            m["bit_error_clean"] = np.mean(wrong[:, ~jammed], axis=1)
+            for key, v in m.items():
+                per_trial.setdefault(f"{name}:{key}", []).append(np.asarray(v, dtype=float))
+            sq_sum[name] = sq_sum.get(name, 0.0) + np.sum(err**2, axis=0)
+            if b0 <= fig_trial < b0 + len(trials_b):
+                i = fig_trial - b0
+                example[f"{name}:phase"] = err[i]
+                example[f"{name}:frequency"] = ferr[i]
+                example[f"{name}:bit_error"] = wrong[i].astype(np.int8)
+            # pseudorange at the common receiver times: arrival estimate = true arrival - code error
+            dtau = out[f"{name}_code_error_chips"]
+            pr_meas = pr_true[None, :] - C_LIGHT * CHIP_S * dtau
+            pseudo[name].append(np.stack([np.interp(t_pos, rt, row) for row in pr_meas]))
+        log("PRN %d: trials %d-%d done", prn, trials_b[0], trials_b[-1])
+        del true_bit
+    metric_keys = sorted({key.split(":", 1)[1] for key in per_trial})
+    data = {
+        key: (("tracker", "trial"), np.array([np.concatenate(per_trial[f"{n}:{key}"]) for n in names]))
+        for key in metric_keys
+    }
+    data["rmse_t"] = (("tracker", "time"), np.array([np.sqrt(sq_sum[n] / n_trials) for n in names]), {"units": "rad"})
+    for what, units in (("phase", "rad"), ("frequency", "Hz"), ("bit_error", "1")):
+        data[f"example_{what}"] = (("tracker", "time"), np.array([example[f"{n}:{what}"] for n in names]), {"units": units, "trial": fig_trial})
+    data["pseudorange"] = (("tracker", "trial", "pos_time"), np.array([np.concatenate(pseudo[n]) for n in names]), {"units": "m"})
+    last, nxt = _prediction_map(ds, k, ephs, header)
+    data["prediction_last"] = (("word", "bit_in_word"), last)
+    data["prediction_next"] = (("word", "bit_in_word"), nxt)
+    res = xr.Dataset(
+        data,
+        coords={"tracker": ("tracker", names), "trial": ("trial", np.arange(n_trials)), "time": ("time", t20, {"units": "s"}),
+                "pos_time": ("pos_time", t_pos, {"units": "s", "long_name": "receiver time of the position epochs"})},
+    )
+    res.attrs.update(prn=int(prn), jammer_onset_s=onset, cn0_jammed_dbhz=float(ds.attrs["cn0_jammed_dbhz"] if cn0_jammed_dbhz is None else cn0_jammed_dbhz),
+                     dataset_version=str(ds.attrs["dataset_version"]), source="synthetic", n_trials=n_trials,
+                     error_wrap="pll: modulo pi (Costas); mm_*: modulo 2 pi")
+    return res

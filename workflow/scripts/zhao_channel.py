@@ -1,0 +1,14 @@
+"""Result rule entry point: one satellite channel of the jamming receiver (all trials)."""
+
+from scintrack import runlog
+from scintrack.experiments.gps_channel_result import channel_result
+from scintrack.io import open_dataset, provenance, write_netcdf
+
+sm = snakemake  # noqa: F821
+log = runlog.setup(sm.log[0], f"zhao_channel prn {sm.wildcards.prn}")
+params = dict(sm.params.receiver)
+ds = open_dataset(sm.input.dataset)
+out = channel_result(ds, int(sm.wildcards.prn), params, sm.input.ephemerides, log=log.info)
+out.attrs.update(provenance(config=params, seed=params["seed"], inputs=[sm.input.dataset]))
+digest = write_netcdf(out, sm.output[0])
+log.info("wrote %s (content sha256 %s)", sm.output[0], digest)
