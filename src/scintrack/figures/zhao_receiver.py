@@ -95,8 +95,13 @@ def _position_figure(res: xr.Dataset, tracker: str, t_max: float | None, fig_no:
         ax.set_ylabel(f"{name} error [m]")
         if t_max is None:
             _onset(ax, res)
-        m, s = np.mean(enu[keep, j]), np.std(enu[keep, j], ddof=1)
-        ax.set_title(f"mean {m:.1f} m, std {s:.1f} m", fontsize=8)
+            span = t >= float(res.attrs["jammer_onset_s"])
+            which = "jammed part"
+        else:
+            span = keep
+            which = "clean part"
+        m, s = np.mean(enu[span, j]), np.std(enu[span, j], ddof=1)
+        ax.set_title(f"{which}: mean {m:.1f} m, std {s:.1f} m", fontsize=8)
     axes[-1].set_xlabel("time [s]")
     fig.suptitle(f"Fig. {fig_no}: {title}, {LABELS.get(tracker, tracker)} carrier aiding\ntrial {trial}, 1 Hz least squares, 4 satellites ({SYNTHETIC})")
     fig.tight_layout()
@@ -160,6 +165,8 @@ def zhao_ablation(receiver):
         else:
             m, lo, hi = mean_ci(v, axis=1)
             ax.errorbar(x, m, yerr=[m - lo, hi - m], fmt="o", ms=4, capsize=3, color="k", label="all satellites")
+        if key.startswith("err3d"):
+            ax.set_yscale("log")
         ax.set_xticks(x)
         ax.set_xticklabels([LABELS.get(t, t).replace(", ", ",\n") for t in trackers], fontsize=6.5)
         ax.set_title(label, fontsize=9)

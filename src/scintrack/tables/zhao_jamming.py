@@ -82,8 +82,9 @@ def zhao_table_ablation(receiver: xr.Dataset) -> dict:
             rows.append(row)
         m, lo, hi = mean_ci(receiver["err3d_rms_jammed"].sel(tracker=tr).values)
         rows[-1]["3D position RMS jammed [m] (all satellites)"] = f"{m:.3g} [{lo:.3g}, {hi:.3g}]"
-    note = (f"Mean [95% interval] over {int(receiver.attrs['n_trials'])} trials x satellites of each group. Loss of lock: running 1-s mean of "
-            "|phase error| above pi/4 (PLL error modulo pi, MM modulo 2 pi). Position: all four satellites, hence one value per tracker. Synthetic data.")
+    lock = receiver.attrs["lock"]
+    note = (f"Mean [95% interval] over {int(receiver.attrs['n_trials'])} trials x satellites of each group. Loss of lock: {lock} "
+            "(PLL error modulo pi, MM modulo 2 pi). Position: all four satellites, hence one value per tracker. Synthetic data.")
     return {"table_ablation": (pd.DataFrame(rows).fillna(""), "Ablation: what each ingredient of the MM receiver buys", note)}
 
 
