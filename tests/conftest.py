@@ -14,7 +14,7 @@ BIN = Path(sys.executable).parent
 SNAKEMAKE = str(BIN / "snakemake")
 
 
-def run_snakemake(workdir: Path, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+def run_snakemake(workdir: Path, *args: str, timeout: float = 900) -> subprocess.CompletedProcess:
     """Run the repository's Snakefile with the smoke overlay in ``workdir``."""
     cmd = [
         SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
