@@ -58,6 +58,11 @@ include: "workflow/rules/experiments.smk"
 include: "workflow/rules/real_traces.smk"
 
 
+# Susi, Andreotti & Aquino 2014: the traces of its 1-ms scenarios and their indices
+# (its trackers run through the experiment rules above).
+include: "workflow/rules/susi.smk"
+
+
 # Zhao, Khanafseh & Pervan: the jammed SKYDEL-like GPS L1 C/A dataset (truth,
 # navigation message, IQ recording) and the results behind its figures.
 include: "workflow/rules/gps_jamming.smk"

@@ -23,6 +23,7 @@ from scintrack.trackers.aekf_ar import AEKFAR
 from scintrack.trackers.base import TrackInit
 from scintrack.trackers.kf import DiscriminatorKF
 from scintrack.trackers.pll import PLL
+from scintrack.trackers.susi_kf import SusiKF
 
 TS = 0.01
 
@@ -52,6 +53,9 @@ def main() -> None:
         "AKF": DiscriminatorKF(ts=TS, q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4), adaptive_r=True),
         "AKF-AR": DiscriminatorKF(ts=TS, q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4), adaptive_r=True, ar_coefs=mod.phase.coefs, ar_sigma2=mod.phase.sigma2),
         "AEKF-AR": AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=[ScintillationAR.no_scintillation(), mod, sev], adaptive=True, nominal_noise=0.1),
+        # Susi 2014 (here at Ts = 10 ms; the SAKF refreshes Phi3 / T, p every 0.1 s from the last 3 s)
+        "AKF PLL": SusiKF(ts=TS, clock="ocxo", q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4), discriminator="atan2"),
+        "SAKF PLL": SusiKF(ts=TS, clock="ocxo", q_jerk=0.01, nominal_cn0_hz=1000.0, p0_diag=(0.25, 1.0, 1e4), discriminator="atan2", scintillation=True),
     }
     print(f"{n} trials x {k} epochs, one process, single thread")
     print(f"{'tracker':8s} {'kernel M/s':>11s} {'numpy-ref M/s':>14s} {'per-trial loop M/s':>19s} {'kernel/loop':>12s}")

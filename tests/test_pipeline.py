@@ -54,7 +54,8 @@ def test_manifest_lists_every_dataset_with_checksums(smoke_run):
     manifest = json.loads((smoke_run / "data" / "manifest.json").read_text())
     entries = manifest["datasets"]
     # 3 CSM training sets + 3 surrogate events (no real traces configured) + the jammed GPS scenario + its 2 IQ recordings
-    assert len(entries) == 9
+    # + the 2 Susi 2014 surrogate traces
+    assert len(entries) == 11
     for e in entries:
         path = smoke_run / e["path"]
         assert e["sha256"] == sha256_file(path)
@@ -66,7 +67,10 @@ def test_manifest_lists_every_dataset_with_checksums(smoke_run):
     (scenario,) = [e for e in entries if e["dataset_name"] == "gps_jamming"]
     assert scenario["params"]["prns"] == [1, 11, 28, 30] and scenario["source"].startswith("synthetic")
     csm = [e for e in entries if e["dataset_name"].startswith("csm_train")]
-    surrogate = [e for e in entries if e["dataset_name"].startswith("surrogate_")]
+    surrogate = [e for e in entries if e["dataset_name"].startswith("surrogate_event")]
+    susi = [e for e in entries if e["dataset_name"].startswith("surrogate_susi_")]
+    assert sorted(e["params"]["event"] for e in susi) == ["susi_equatorial", "susi_high_latitude"]
+    assert all(e["source"] == "surrogate" and e["path"].startswith("data/synthetic/susi_surrogate_") for e in susi)
     assert sorted(e["params"]["s4"] for e in csm) == [0.3, 0.5, 0.9]
     assert sorted(e["params"]["event"] for e in surrogate) == ["event1", "event2", "event3"]
     assert all(e["source"] == "surrogate" for e in surrogate)

@@ -65,8 +65,9 @@ def test_every_configured_tracker_builds_to_its_class(config):
 
     trace_set = ScintillationAR.from_coefs([0.99], [1.8, -0.9, 0.05], 0.05, 1e-3, 1e-3, s4=0.7)
     from scintrack.trackers.mm_kf import MMKF
+    from scintrack.trackers.susi_kf import SusiAKF, SusiSAKF
 
-    classes = {"pll": PLL, "kf": KF, "akf": AKF, "akf_ar": AKFAR, "aekf_ar": AEKFAR, "mm_kf": MMKF}
+    classes = {"pll": PLL, "kf": KF, "akf": AKF, "akf_ar": AKFAR, "aekf_ar": AEKFAR, "mm_kf": MMKF, "susi_akf": SusiAKF, "susi_sakf": SusiSAKF}
     for name, spec in config["trackers"].items():
         tracker = registry.build(name, spec, _context(config, trace_set=trace_set))
         assert type(tracker) is classes[spec["type"]], name

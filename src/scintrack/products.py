@@ -14,7 +14,9 @@ return a matplotlib Figure.  Table functions receive the opened inputs in the
 declared order and return ``{stem: (DataFrame, title, note)}``.
 
 Sec. VI-E outputs (``trace=True``) get ``_surrogate`` appended to every file
-stem when the traces are the synthetic surrogate.
+stem when the traces are the synthetic surrogate; a product that reads other
+traces (Susi 2014's) says when it does with ``surrogate=`` (a function of
+the config), with the same effect.
 """
 
 from __future__ import annotations
@@ -33,10 +35,17 @@ PRODUCT_MODULES = (
     "scintrack.figures.zhao_jamming",
     "scintrack.figures.zhao_receiver",
     "scintrack.tables.zhao_jamming",
+    "scintrack.figures.susi_2014",
+    "scintrack.tables.susi_2014",
+    "scintrack.figures.ranking",
+    "scintrack.tables.ranking",
 )
 
 #: Report category of each paper (``Product.paper`` -> title).
-PAPERS = {"vila_valls_2018": "Vila-Valls 2018", "zhao_jamming": "Zhao et al. (wideband jamming)"}
+PAPERS = {
+    "vila_valls_2018": "Vila-Valls 2018", "zhao_jamming": "Zhao et al. (wideband jamming)", "susi_2014": "Susi et al. 2014",
+    "cross_paper": "All trackers on all scenarios",
+}
 
 Config = Mapping[str, Any]
 
@@ -56,6 +65,7 @@ class Product:
     paper: str
     section: str
     trace: bool = False
+    surrogate: Callable[[Config], bool] | None = field(default=None, repr=False)
 
     @property
     def module(self) -> str:
@@ -64,6 +74,8 @@ class Product:
     def suffix(self, config: Config) -> str:
         from .pipeline.paths import trace_source
 
+        if self.surrogate is not None:
+            return "_surrogate" if self.surrogate(config) else ""
         return "_surrogate" if self.trace and trace_source(config) == "surrogate" else ""
 
     def outputs(self, config: Config) -> dict[str, str]:
@@ -87,22 +99,22 @@ def _register(product: Product) -> None:
 
 
 def figure(name: str, stem: str, *, paper: str, section: str, inputs: Callable[[Config], dict[str, str]],
-           kwargs: Callable[[Config], dict[str, Any]] = _no_kwargs, trace: bool = False):
+           kwargs: Callable[[Config], dict[str, Any]] = _no_kwargs, trace: bool = False, surrogate: Callable[[Config], bool] | None = None):
     """Register a figure function (decorator)."""
 
     def decorate(func):
-        _register(Product(name, "figure", func, (stem,), inputs, kwargs, paper, section, trace))
+        _register(Product(name, "figure", func, (stem,), inputs, kwargs, paper, section, trace, surrogate))
         return func
 
     return decorate
 
 
 def table(name: str, stems: tuple[str, ...] | list[str], *, paper: str, section: str, inputs: Callable[[Config], dict[str, str]],
-          trace: bool = False):
+          trace: bool = False, surrogate: Callable[[Config], bool] | None = None):
     """Register a table function (decorator)."""
 
     def decorate(func):
-        _register(Product(name, "table", func, tuple(stems), inputs, _no_kwargs, paper, section, trace))
+        _register(Product(name, "table", func, tuple(stems), inputs, _no_kwargs, paper, section, trace, surrogate))
         return func
 
     return decorate

@@ -80,6 +80,9 @@ def raw_trace_path(event):
 
 
 TRACE_FILES = {e: paths.trace_path(config, e) for e in RT["events"]}
+# Susi 2014: the trace scenarios and the trace files they read
+SUSI_SCENARIOS = P.susi_scenarios(config)
+SUSI_TRACE_FILES = sorted({paths.scenario_trace_path(config, s) for s in SUSI_SCENARIOS})
 TRAIN_S4 = [paths.fmt(s) for s in config["ar_training"]["s4"]]
 
 
@@ -99,6 +102,18 @@ def experiment_params(wc):
         return P.experiment(config, wc.experiment, wc.scenario)
     except KeyError as exc:
         raise WorkflowError(str(exc).strip("'\"")) from None
+
+
+def shard_inputs(wc):
+    """The AR look-up table, and the trace of a trace scenario (Susi 2014)."""
+    out = {"lut": AR_LUT}
+    try:
+        trace = paths.scenario_trace_path(config, wc.scenario)
+    except KeyError as exc:
+        raise WorkflowError(str(exc).strip("'\"")) from None
+    if trace:
+        out["trace"] = trace
+    return out
 
 
 # --- figures and tables: registered next to their functions (scintrack.products)
@@ -122,7 +137,7 @@ TWINS = [f for p in TABLES.values() for k, f in p.outputs(config).items() if fee
 
 
 def report_section(product):
-    return product.section + (" (SURROGATE data)" if product.trace and RT_SOURCE == "surrogate" else "")
+    return product.section + (" (SURROGATE data)" if product.suffix(config) else "")
 
 
 # --- publication bundle

@@ -22,6 +22,7 @@ rule dataset_manifest:
     input:
         TRAINING_SETS,
         list(TRACE_FILES.values()),
+        [f for f in SUSI_TRACE_FILES if f not in TRACE_FILES.values()],
         paths.gps_dataset_path(config),
         [v for k, v in paths.gps_iq_paths(config).items() if k.endswith("_sidecar")],
     output:

@@ -12,7 +12,7 @@ wildcard_constraints:
 rule tracking_shard:
     """Run every tracker of an experiment on one block of trials of one scenario."""
     input:
-        lut=AR_LUT,
+        unpack(shard_inputs),
     output:
         temp("results/experiments/{experiment}/{scenario}/shard-{shard}.nc"),
     params:

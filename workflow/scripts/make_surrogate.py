@@ -13,7 +13,8 @@ if version != sm.wildcards.version:
 try:
     ds = surrogate_event(params)
 except ValueError as exc:  # an unreachable S4 / sigma_phi target: name the setting
-    raise SystemExit(f"real_traces.surrogate.events.{params['event']}: {exc}") from None
+    setting = getattr(sm.params, "setting", None) or f"real_traces.surrogate.events.{params['event']}"
+    raise SystemExit(f"{setting}: {exc}") from None
 ds.attrs.update({"dataset_name": f"surrogate_{params['event']}", "dataset_version": version, "generator": GENERATOR})
 ds.attrs.update(provenance(config=params, seed=params["seed"], extra={"params": params}))
 digest = write_netcdf(ds, sm.output[0])

@@ -9,7 +9,12 @@ The amplitude scintillation index ``S4^2 = Var[I] / E[I]^2`` of the intensity
   windows (the phase-screen surrogate's calibration target);
 * :func:`s4_corrected` / :func:`s4_batch`: noise-corrected S4 from the prompt
   intensity moments; :class:`StreamingS4`: the same over a sliding window,
-  per trial, as the AEKF-AR's kernel computes it on line.
+  per trial, as the AEKF-AR's kernel computes it on line;
+* :func:`detrended_s4`: the ISMR S4 (reference notes §3.4; the S4 of Susi,
+  Andreotti & Aquino 2014, Sec. 2): the intensity divided by its trend, a
+  zero-phase 6th-order Butterworth low-pass at 0.1 Hz, then
+  ``std(I_det) / mean(I_det)`` per non-overlapping (60-s) window, optionally
+  noise-corrected.
 
 Noise correction.  With ``P = A rho e^{j theta} + n`` and ``n ~ CN(0, s2)``
 independent of the scintillation:
@@ -79,3 +84,38 @@ class StreamingS4:
         mean = sums[:, 0] / count
         var = blocks.window_variance_ufunc(sums[:, 0], sums[:, 1], float(count))
         return s4_corrected(mean, var, noise_power)
+
+
+def detrended_s4(
+    intensity: np.ndarray, ts: float, window_s: float = 60.0, cutoff_hz: float = 0.1, noise_power: float | np.ndarray = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """(window centre times in s, S4 per non-overlapping window) of the trend-normalised intensity.
+
+    ``trend`` = 6th-order Butterworth low-pass at ``cutoff_hz`` applied
+    zero-phase (``sosfiltfilt``) to ``intensity`` along its last axis,
+    ``I_det = I / trend``; per window of ``round(window_s / ts)`` samples
+    (a partial last window is dropped; a window's time is the mean of its
+    sample times, sample ``n`` at ``n ts``), ``S4 = std(I_det) / mean(I_det)``.
+
+    ``noise_power`` (the thermal-noise power ``s2`` of the prompts whose
+    ``|P|^2`` is ``intensity``; scalar or broadcastable to it) is removed with
+    :func:`s4_corrected` applied to the moments of ``I_det``: dividing by the
+    trend scales signal and noise alike, so the noise power of ``I_det`` is
+    ``s2 / trend``, taken as its mean over the window (the trend is nearly
+    constant within one).  ``noise_power = 0`` is the uncorrected
+    ``std / mean``.
+    """
+    from scipy import signal  # imported where used: keeps importing the package (DAG parsing) light
+
+    intensity = np.asarray(intensity, dtype=float)
+    sos = signal.butter(6, cutoff_hz, btype="lowpass", fs=1.0 / ts, output="sos")
+    trend = signal.sosfiltfilt(sos, intensity, axis=-1)
+    per = int(round(window_s / ts))
+    if per < 1:
+        raise ValueError(f"window_s = {window_s:g} s is shorter than one sample (ts = {ts:g} s)")
+    m = intensity.shape[-1] // per
+    shape = (*intensity.shape[:-1], m, per)
+    i_det = (intensity / trend)[..., : m * per].reshape(shape)
+    noise_det = (np.broadcast_to(np.asarray(noise_power, dtype=float), intensity.shape) / trend)[..., : m * per].reshape(shape)
+    times = (per * np.arange(m) + 0.5 * (per - 1)) * ts
+    return times, s4_corrected(i_det.mean(axis=-1), i_det.var(axis=-1), noise_det.mean(axis=-1))

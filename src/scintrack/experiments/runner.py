@@ -11,7 +11,32 @@ separate jobs (or on a cluster) and be combined exactly by :func:`merge`:
   events per trial (see :mod:`.metrics`);
 * ``example_error`` (tracker, time): the unwrapped error of the shard's first
   trial (Fig. 16 shows one realisation);
-* ``s4_true`` (time) and, for adaptive trackers, ``s4_hat_mean`` (tracker, time).
+* ``s4_true`` (time) and, for adaptive trackers, ``s4_hat_mean`` (tracker, time);
+* for trackers that report their discriminator output (the PLL and the Susi
+  KF PLLs, Susi et al. 2014): ``jitter_discriminator`` (tracker, trial,
+  window), the standard deviation of the discriminator output over
+  consecutive ``tracking.jitter_window_s`` windows (the chapter's "phase
+  jitter"), and ``jitter_tracking`` the same for the true total-phase
+  tracking error ``wrap(theta_hat - theta_d - theta_s)``; examples of the
+  first trial: ``example_discriminator``, ``example_frequency`` (the carrier
+  Doppler estimate, with ``example_frequency_true``); means over trials of the
+  SAKF's on-line ``phi3``/``p``/``weight`` and median of ``T``.
+
+Total-phase metrics (every tracker): the error of the tracker's estimate of
+the *total* carrier phase against ``theta_d + theta_s``, i.e. what a
+receiver's carrier phase measurement delivers (Susi et al.'s view; the
+Vila-Valls metric above is the theta_d error alone, which charges a loop
+without a scintillation model for following the scintillation).  The total
+estimate is ``extras["total_phase"]`` where a tracker has AR states (AKF-AR:
+``H x``), ``theta_d + theta_s`` estimates for the AEKF-AR, and ``theta_d``
+itself for every other tracker (they track the total phase).
+``ms_total_steady`` (tracker, trial) over the steady-state window (wrapped
+error) and ``slip_events_total`` / ``slips_total`` (tracker, trial).
+
+Per-epoch statistics (everything on the ``time`` dimension) are block means
+over ``tracking.stats_resolution_s`` (10 ms: at the 10-ms scenarios one epoch,
+so nothing changes there; 10 epochs at 1 ms, which keeps a 1-ms result small).
+Per-trial statistics (steady-state mean square, slips, jitter) use every epoch.
 
 Trackers are built through :mod:`scintrack.trackers.registry`; their labels go
 into the dataset attribute ``tracker_labels`` (canonical JSON ``{name: label}``;
@@ -30,9 +55,25 @@ from ..io import canonical_json
 from ..trackers import registry
 from ..trackers.base import TrackerContext
 from .metrics import rmse_with_ci, slip_counts, steady_rmse, unwrapped_error, wrap
-from .scenario import acquisition, simulate
+from .scenario import acquisition, effective_tracking, simulate
 
 KINDS = ("wrapped", "unwrapped")
+MONITORS = ("phi3", "p", "weight", "T")  # on-line SAKF quantities averaged over trials (T: median)
+
+
+def block_mean(a: np.ndarray, block: int) -> np.ndarray:
+    """Means over consecutive blocks of ``block`` samples along the last axis (``block = 1``: ``a`` itself)."""
+    a = np.asarray(a)
+    if block == 1:
+        return a
+    nb = a.shape[-1] // block
+    return a[..., : nb * block].reshape(*a.shape[:-1], nb, block).mean(axis=-1)
+
+
+def window_std(a: np.ndarray, per: int) -> np.ndarray:
+    """Standard deviation over consecutive windows of ``per`` samples along the last axis."""
+    nw = a.shape[-1] // per
+    return a[..., : nw * per].reshape(*a.shape[:-1], nw, per).std(axis=-1)
 
 
 def run_shard(
@@ -52,38 +93,76 @@ def run_shard(
     trace_set=None,
 ) -> xr.Dataset:
     """One shard; ``trace``/``trace_set``: a recorded scintillation and its fitted AR models (Sec. VI-E)."""
+    tracking = effective_tracking(scenario, tracking)
     real = simulate(scenario_name, scenario, tracking, seed=seed, ts=ts, nspa=nspa, warmup_s=warmup_s, trials=trials, lut=lut, trace=trace)
     init = acquisition(real, tracking)
     n_epochs = real.y.shape[1]
+    block = max(int(round(float(tracking.get("stats_resolution_s", ts)) / ts)), 1)
+    n_stat = n_epochs // block
+    per_window = max(int(round(float(tracking.get("jitter_window_s", 60.0)) / ts)), 1)
+    n_windows = n_epochs // per_window
+    total_phase = real.theta_d + real.theta_s
     steady = slice(int(round(float(tracking["steady_state_start_s"]) / ts)), None)
     if steady.start >= n_epochs:
         raise ValueError(f"scenario {scenario_name!r}: steady_state_start_s is beyond its duration")
     hyst = float(tracking["slip_hysteresis_rad"])
     settle = int(round(float(tracking["slip_settle_s"]) / ts))
     nt = len(tracker_names)
-    sq = np.zeros((nt, 2, n_epochs))
+    sq = np.zeros((nt, 2, n_stat))
     sq2 = np.zeros_like(sq)
     ms = np.zeros((nt, 2, real.trials.size))
     slips = np.zeros((nt, real.trials.size), dtype=np.int64)
     events = np.zeros_like(slips)
-    example = np.zeros((nt, n_epochs))
-    s4_hat = np.full((nt, n_epochs), np.nan)
+    example = np.zeros((nt, n_stat))
+    s4_hat = np.full((nt, n_stat), np.nan)
+    jit_disc = np.full((nt, real.trials.size, n_windows), np.nan)
+    jit_track = np.full_like(jit_disc, np.nan)
+    ex_disc = np.full((nt, n_stat), np.nan)
+    ex_freq = np.full((nt, n_stat), np.nan)
+    monitors = {m: np.full((nt, n_stat), np.nan) for m in MONITORS}
+    ms_tot = np.zeros((nt, real.trials.size))
+    slips_tot = np.zeros((nt, real.trials.size), dtype=np.int64)
+    events_tot = np.zeros_like(slips_tot)
     context = TrackerContext(scenario=scenario, tracking=tracking, lut=lut, ts=ts, trace_set=trace_set)
     for j, name in enumerate(tracker_names):
         tracker = registry.build(name, tracker_specs[name], context)
-        if hasattr(tracker, "record") and getattr(tracker, "adaptive", False):
-            tracker.record = ("s4_hat",)
+        if hasattr(tracker, "ar_sets"):  # the AEKF-AR: its scintillation phase (and the adaptive S4) estimates
+            tracker.record = ("theta_s", "s4_hat") if getattr(tracker, "adaptive", False) else ("theta_s",)
         out = tracker.run(real.y, init)
+        if "total_phase" in out.extras:
+            total_hat = out.extras["total_phase"]
+        elif "theta_s" in out.extras:
+            total_hat = out.theta_d + out.extras["theta_s"]
+        else:
+            total_hat = out.theta_d
+        et = unwrapped_error(total_hat, total_phase)
+        ms_tot[j] = (wrap(et[:, steady]) ** 2).mean(axis=1)
+        slips_tot[j], events_tot[j] = slip_counts(et, hyst, settle)
+        del et, total_hat
         eu = unwrapped_error(out.theta_d, real.theta_d)
         for kk, e in enumerate((wrap(eu), eu)):
             e2 = e**2
+            ms[j, kk] = e2[:, steady].mean(axis=1)
+            e2 = block_mean(e2, block)
             sq[j, kk] = e2.sum(axis=0)
             sq2[j, kk] = (e2**2).sum(axis=0)
-            ms[j, kk] = e2[:, steady].mean(axis=1)
         slips[j], events[j] = slip_counts(eu, hyst, settle)
-        example[j] = eu[0]
+        example[j] = block_mean(eu[0], block)
         if "s4_hat" in out.extras:
-            s4_hat[j] = out.extras["s4_hat"].mean(axis=0)
+            s4_hat[j] = block_mean(out.extras["s4_hat"].mean(axis=0), block)
+        if "discriminator" in out.extras:
+            disc = out.extras["discriminator"]
+            jit_disc[j] = window_std(disc, per_window)
+            jit_track[j] = window_std(wrap(out.theta_d - total_phase), per_window)
+            ex_disc[j] = block_mean(disc[0], block)
+        if "frequency_hz" in out.extras:
+            ex_freq[j] = block_mean(out.extras["frequency_hz"][0], block)
+        for m in MONITORS:
+            if m in out.extras:
+                v = out.extras[m]
+                stat = np.nanmedian(v, axis=0) if m == "T" else np.nanmean(v, axis=0)
+                monitors[m][j] = block_mean(stat, block)
+        del out, eu
     ds = xr.Dataset(
         {
             "sq_sum": (("tracker", "kind", "time"), sq, {"long_name": "sum over trials of the squared phase error", "units": "rad2"}),
@@ -93,8 +172,11 @@ def run_shard(
             "slip_events": (("tracker", "trial"), events, {"long_name": "slip events per trial", "units": "1"}),
             "example_error": (("tracker", "time"), example, {"long_name": "unwrapped phase error of the first trial of the shard", "units": "rad"}),
             "example_trial": ((), int(real.trials[0])),
-            "s4_true": (("time",), real.s4_t, {"long_name": "S4 of the CSM profile", "units": "1"}),
-            "tau0_true": (("time",), real.tau0_t, {"long_name": "tau0 of the CSM profile", "units": "s"}),
+            "ms_total_steady": (("tracker", "trial"), ms_tot, {"long_name": "per-trial mean square of the wrapped total-phase error over the steady-state window", "units": "rad2"}),
+            "slips_total": (("tracker", "trial"), slips_tot, {"long_name": "cycles slipped by the total-phase error per trial", "units": "1"}),
+            "slip_events_total": (("tracker", "trial"), events_tot, {"long_name": "slip events of the total-phase error per trial", "units": "1"}),
+            "s4_true": (("time",), block_mean(real.s4_t, block), {"long_name": "S4 of the CSM profile", "units": "1"}),
+            "tau0_true": (("time",), block_mean(real.tau0_t, block), {"long_name": "tau0 of the CSM profile", "units": "s"}),
             "s4_hat_mean": (("tracker", "time"), s4_hat, {"long_name": "mean over trials of the on-line S4 estimate (adaptive trackers)", "units": "1"}),
             "n_trials": ((), int(real.trials.size)),
         },
@@ -102,15 +184,29 @@ def run_shard(
             "tracker": list(tracker_names),
             "kind": list(KINDS),
             "trial": real.trials,
-            "time": ("time", real.time, {"units": "s", "long_name": "time"}),
+            "time": ("time", block_mean(real.time, block), {"units": "s", "long_name": "time"}),
         },
     )
+    if any(np.isfinite(jit_disc).any(axis=(1, 2))) or any(np.isfinite(ex_freq).any(axis=1)):
+        truth_freq = np.diff(total_phase[0], append=2 * total_phase[0, -1] - total_phase[0, -2]) / (2 * np.pi * ts)
+        ds["jitter_discriminator"] = (("tracker", "trial", "window"), jit_disc,
+                                      {"long_name": "std of the discriminator output over each window (Susi's phase jitter)", "units": "rad"})
+        ds["jitter_tracking"] = (("tracker", "trial", "window"), jit_track,
+                                 {"long_name": "std of the wrapped total-phase tracking error over each window", "units": "rad"})
+        ds["example_discriminator"] = (("tracker", "time"), ex_disc, {"long_name": "discriminator output, first trial of the shard", "units": "rad"})
+        ds["example_frequency"] = (("tracker", "time"), ex_freq, {"long_name": "carrier Doppler estimate, first trial of the shard", "units": "Hz"})
+        ds["example_frequency_true"] = (("time",), block_mean(truth_freq, block), {"long_name": "true carrier Doppler (dynamics + clock + scintillation), first trial", "units": "Hz"})
+        for m, v in monitors.items():
+            ds[f"{m}_mean"] = (("tracker", "time"), v, {"long_name": f"{'median' if m == 'T' else 'mean'} over trials of the on-line {m} (SAKF)"})
+        ds = ds.assign_coords(window=("window", (np.arange(n_windows) + 0.5) * per_window * ts, {"units": "s", "long_name": "window centre"}))
     ds.attrs.update(
         {
             "scenario": scenario_name,
             "steady_state_start_s": float(tracking["steady_state_start_s"]),
             "slip_hysteresis_rad": hyst,
             "slip_settle_s": float(tracking["slip_settle_s"]),
+            "stats_block_epochs": block,
+            "jitter_window_s": per_window * ts,
             "tracker_labels": tracker_labels(tracker_names, tracker_specs),
         }
     )
@@ -134,6 +230,9 @@ def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:
             "ms_steady": xr.concat([d["ms_steady"] for d in shards], dim="trial"),
             "slips": xr.concat([d["slips"] for d in shards], dim="trial"),
             "slip_events": xr.concat([d["slip_events"] for d in shards], dim="trial"),
+            "ms_total_steady": xr.concat([d["ms_total_steady"] for d in shards], dim="trial"),
+            "slips_total": xr.concat([d["slips_total"] for d in shards], dim="trial"),
+            "slip_events_total": xr.concat([d["slip_events_total"] for d in shards], dim="trial"),
             "example_error": first["example_error"],
             "example_trial": first["example_trial"],
             "s4_true": first["s4_true"],
@@ -142,6 +241,16 @@ def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:
             "n_trials": n,
         }
     )
+    optional = [k for k in ("jitter_discriminator", "jitter_tracking") if k in first]
+    for key in optional:
+        out[key] = xr.concat([d[key] for d in shards], dim="trial")
+    for key in ("example_discriminator", "example_frequency", "example_frequency_true"):
+        if key in first:
+            out[key] = first[key]
+    for m in MONITORS:
+        key = f"{m}_mean"
+        if key in first:
+            out[key] = sum(d[key] * int(d["n_trials"]) for d in shards) / n if m != "T" else first[key]  # T: the first shard's median
     out.attrs.update(first.attrs)
     trials = out["trial"].values
     if np.unique(trials).size != trials.size:
@@ -155,6 +264,11 @@ def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:
     out["steady_rmse"] = (("tracker", "kind"), s, {**attrs, "long_name": "steady-state RMSE of theta_d"})
     out["steady_rmse_lo"] = (("tracker", "kind"), slo, attrs)
     out["steady_rmse_hi"] = (("tracker", "kind"), shi, attrs)
-    for key in ("sq_sum", "sq2_sum", "slips", "slip_events", "ms_steady", "example_error", "s4_true", "s4_hat_mean"):
+    s, slo, shi = steady_rmse(out["ms_total_steady"].values, axis=-1)
+    out["steady_rmse_total"] = (("tracker",), s, {**attrs, "long_name": "steady-state RMSE of the wrapped total-phase error"})
+    out["steady_rmse_total_lo"] = (("tracker",), slo, attrs)
+    out["steady_rmse_total_hi"] = (("tracker",), shi, attrs)
+    for key in ("sq_sum", "sq2_sum", "slips", "slip_events", "ms_steady", "example_error", "s4_true", "s4_hat_mean", "ms_total_steady", "slips_total",
+                "slip_events_total", *optional):
         out[key].attrs.update(first[key].attrs)
     return out

@@ -14,6 +14,16 @@ A recorded (real or surrogate) trace is passed to :func:`simulate` as
 ``dynamics=False`` gives the static, dynamics-free case of Sec. VI-E2
 (theta_d = 0).  :func:`acquisition` gives the trackers' initial values.
 
+A scenario may override the shared dynamics (``fd0_hz``, ``fr_hz_s``) and
+add a receiver oscillator, ``clock: <preset>`` of
+:mod:`scintrack.models.clock`, whose exact two-state phase noise (in rad,
+its own seed stream per trial) is part of ``theta_d``: the phase every
+tracker must follow (Susi et al. 2014 process their data with an OCXO and a
+rubidium clock).  ``scintillation_model: trace`` scenarios (Susi's 1-ms
+cases) take the scintillation from a recorded trace passed as ``trace``;
+their ``ts`` and ``tracking`` overrides are applied by the caller
+(:func:`effective_tracking`, :mod:`.runner`).
+
 :func:`simulate` draws, for a list of trial indices, the initial phase, the
 CSM scintillation and the thermal noise from independent seed streams named
 after the scenario, so trial k is identical whichever shard or experiment
@@ -48,6 +58,7 @@ class Realisation:
     noise_power: float
     s4_t: np.ndarray
     tau0_t: np.ndarray
+    fd0_hz: float = 0.0
 
     @property
     def time(self) -> np.ndarray:
@@ -74,6 +85,29 @@ def ar_scintillation(seed: int, name: str, trials: np.ndarray, n_epochs: int, mo
     return theta, rho
 
 
+def effective_tracking(scenario: Mapping[str, Any], tracking: Mapping[str, Any]) -> dict[str, Any]:
+    """The shared tracking settings with the scenario's own ``tracking`` overrides
+    (e.g. the estimator windows in epochs of a 1-ms scenario)."""
+    return {**tracking, **dict(scenario.get("tracking", {}))}
+
+
+def scenario_dynamics(scenario: Mapping[str, Any], tracking: Mapping[str, Any]) -> tuple[float, float]:
+    """(f_d0 [Hz], f_r [Hz/s]): the scenario's own values, else the shared ones."""
+    return float(scenario.get("fd0_hz", tracking["fd0_hz"])), float(scenario.get("fr_hz_s", tracking["fr_hz_s"]))
+
+
+def clock_phase(seed: int, name: str, trials: np.ndarray, n_epochs: int, ts: float, preset: str) -> np.ndarray:
+    """Receiver-oscillator carrier phase [rad] (trials, epochs), exact two-state model, one stream per trial."""
+    from ..models import clock as clock_models
+    from ..seeding import rng_for
+
+    model = clock_models.preset(preset)
+    out = np.empty((trials.size, n_epochs))
+    for row, trial in enumerate(trials):
+        out[row] = clock_models.simulate(model, ts, n_epochs, rng_for(seed, name, int(trial)), units="rad")[0]
+    return out
+
+
 def acquisition(real: Realisation, tracking: Mapping[str, Any], static: bool = False):
     """Initial values every tracker gets: phase of the first prompt, nominal Doppler, zero rate.
 
@@ -86,7 +120,7 @@ def acquisition(real: Realisation, tracking: Mapping[str, Any], static: bool = F
         return TrackInit(phase=np.zeros(n), doppler_hz=np.zeros(n), rate_hz_s=np.zeros(n))
     return TrackInit(
         phase=np.angle(real.y[:, 0]),
-        doppler_hz=np.full(n, float(tracking["fd0_hz"])),
+        doppler_hz=np.full(n, float(real.fd0_hz)),
         rate_hz_s=np.zeros(n),
     )
 
@@ -99,13 +133,18 @@ def simulate(
     trials = np.asarray(list(trials))
     amp = float(tracking["amplitude"])
     cn0 = float(scenario.get("cn0_dbhz", tracking["cn0_dbhz"]))
+    fd0, fr = scenario_dynamics(scenario, tracking)
     if dynamics:
         theta0 = initial_phases(seed, f"scenario/{name}/theta0", trials)
-        theta_d = third_order_phase(theta0, n_epochs, ts, float(tracking["fd0_hz"]), float(tracking["fr_hz_s"]))
+        theta_d = third_order_phase(theta0, n_epochs, ts, fd0, fr)
+        if scenario.get("clock"):
+            theta_d = theta_d + clock_phase(seed, f"scenario/{name}/clock", trials, n_epochs, ts, str(scenario["clock"]))
     else:
         theta_d = np.zeros((trials.size, n_epochs))
     segs = segments_of(scenario)
     warmup = int(round(warmup_s / ts))
+    if trace is None and scenario.get("scintillation_model") == "trace":
+        raise ValueError(f"scenario {name!r}: scintillation_model trace needs its trace (the experiment rule passes it)")
     if trace is not None:
         rho_1, theta_1 = (np.asarray(v, dtype=float) for v in trace)
         if rho_1.size < n_epochs:
@@ -134,4 +173,4 @@ def simulate(
     s2 = noise_power(cn0, ts, amp)
     noise = complex_noise(seed, f"scenario/{name}/noise", trials, n_epochs, s2)
     y = prompts(theta_d + theta_s, rho, noise, amp)
-    return Realisation(trials=trials, ts=ts, theta_d=theta_d, theta_s=theta_s, rho_s=rho, y=y, noise_power=s2, s4_t=s4_t, tau0_t=tau0_t)
+    return Realisation(trials=trials, ts=ts, theta_d=theta_d, theta_s=theta_s, rho_s=rho, y=y, noise_power=s2, s4_t=s4_t, tau0_t=tau0_t, fd0_hz=fd0)

@@ -16,6 +16,11 @@
   Table III) and, as diagnostics, |rho_hat| and the unwrapped phase error.
 * :func:`dynamics_experiment`: the trace on top of the aeronautical dynamics,
   every tracker (Fig. 15, Tables VI and VIII).
+* :func:`scenario_trace`: the trace of a ``scintillation_model: trace``
+  scenario (Susi 2014's 1-ms cases): its L1 band at the scenario's Ts, the AR
+  models fitted on its first ``trace.fit_s`` seconds (for ``design: trace``
+  trackers) and the ``duration_s`` seconds after them, the scintillation the
+  experiment tracks.
 
 The evaluation segment is the ``eval_s`` seconds after the fitting segment;
 its phase is referenced to its first sample (open-loop processing leaves an
@@ -92,6 +97,25 @@ def trace_ar_set(models: xr.Dataset, band: str) -> ScintillationAR:
         s4=float(m["s4_fit"]),
         label=f"{models.attrs['event']} {band}: AR({p})/AR(3) fitted on the first {models.attrs['fit_s']:g} s",
     )
+
+
+def scenario_trace(ds: xr.Dataset, scenario: Mapping[str, Any], ts: float) -> tuple[tuple[np.ndarray, np.ndarray], ScintillationAR, str]:
+    """((rho, theta) to track, AR models of the fitting part, source) of a trace scenario."""
+    from ..data.susi_traces import at_rate
+
+    rho, theta, source = at_rate(ds, ts)
+    fit_s, duration_s = float(scenario["trace"]["fit_s"]), float(scenario["duration_s"])
+    name = str(ds.attrs.get("event", scenario["trace"]["name"]))
+    one = xr.Dataset(
+        {"amplitude": (("band", "time"), rho[None, :]), "phase": (("band", "time"), theta[None, :])},
+        coords={"band": ["L1"], "time": np.arange(rho.size) * ts}, attrs={"event": name, "source": source},
+    )
+    if fit_s > 0:
+        models = fit_trace_models(one, fit_s=fit_s, ts=ts)
+        ar = trace_ar_set(models, "L1")
+    else:
+        ar = None
+    return segment(one, "L1", fit_s, duration_s, ts), ar, source
 
 
 def sliding_s4(rho: np.ndarray, ts: float, window_s: float, step_s: float = 1.0) -> tuple[np.ndarray, np.ndarray]:

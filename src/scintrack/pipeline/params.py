@@ -24,7 +24,9 @@ from ..data.synthetic import csm_training_params
 from . import paths
 
 # tracking settings that define the scenario (truth, observations) and the metrics
-SCENARIO_TRACKING_KEYS = ("cn0_dbhz", "amplitude", "fd0_hz", "fr_hz_s", "steady_state_start_s", "slip_hysteresis_rad", "slip_settle_s")
+SCENARIO_TRACKING_KEYS = (
+    "cn0_dbhz", "amplitude", "fd0_hz", "fr_hz_s", "steady_state_start_s", "slip_hysteresis_rad", "slip_settle_s", "stats_resolution_s", "jitter_window_s",
+)
 
 
 def _sampling(config: Mapping[str, Any]) -> dict[str, Any]:
@@ -75,10 +77,11 @@ def experiment(config: Mapping[str, Any], name: str, scenario: str) -> dict[str,
     if scenario not in config["scenarios"]:
         raise KeyError(f"experiment {name}: scenario {scenario!r} is not defined under 'scenarios' in the config")
     trackers = list(spec["trackers"])
-    return {
+    sc = dict(config["scenarios"][scenario])
+    out = {
         "experiment": name,
         "scenario_name": scenario,
-        "scenario": dict(config["scenarios"][scenario]),
+        "scenario": sc,
         "tracker_names": trackers,
         "trackers": tracker_specs(config, trackers),
         "tracking": tracking_slice(config, trackers),
@@ -88,6 +91,44 @@ def experiment(config: Mapping[str, Any], name: str, scenario: str) -> dict[str,
         "shards": int(spec["shards"]),
         "lut": ar_lut(config),
     }
+    if "ts" in sc:
+        out["ts"] = float(sc["ts"])
+    if "trace" in sc:
+        out["trace"] = susi_trace(config, sc["trace"]["name"])
+    return out
+
+
+def susi_trace(config: Mapping[str, Any], name: str) -> dict[str, Any]:
+    """What the trace of a trace scenario (Susi 2014) depends on."""
+    from ..data.susi_traces import trace_input
+
+    return trace_input(config, name)
+
+
+def susi_indices(config: Mapping[str, Any], scenario: str) -> dict[str, Any]:
+    """The S4 / Phi60 / Phi3 / T, p diagnostics of one Susi scenario (Figs. 3 and 6)."""
+    su = config["susi_2014"]
+    tracker = su["indices"]["tracker"]
+    return {
+        "experiment": experiment_like(config, scenario, [tracker]),
+        "indices": dict(su["indices"]),
+        "figure_trial": int(su["figure_trial"]),
+    }
+
+
+def experiment_like(config: Mapping[str, Any], scenario: str, trackers) -> dict[str, Any]:
+    """The params of an experiment of ``trackers`` on ``scenario`` (one trial)."""
+    fake = {**config, "experiments": {"_": {"scenarios": [scenario], "trackers": list(trackers), "trials": 1, "shards": 1}}}
+    out = experiment(fake, "_", scenario)
+    for key in ("experiment", "n_trials", "shards", "lut"):
+        out.pop(key)
+    return out
+
+
+def susi_scenarios(config: Mapping[str, Any]) -> list[str]:
+    """The trace scenarios of the experiments (Susi 2014's), in config order."""
+    used = {sc for exp in config["experiments"].values() for sc in exp["scenarios"]}
+    return [name for name, sc in config["scenarios"].items() if "trace" in sc and name in used]
 
 
 def shard_trials(config: Mapping[str, Any], name: str, shard: int) -> list[int]:
@@ -195,6 +236,8 @@ def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
         out[paths.trace_models_path(config, event)] = trace_models(config, event)
         out[paths.trace_static_path(config, event)] = trace_static(config, event)
         out[paths.trace_dynamics_path(config, event)] = trace_dynamics(config, event)
+    for scenario in susi_scenarios(config):
+        out[paths.susi_indices_path(scenario)] = susi_indices(config, scenario)
     out[paths.ZHAO_CN0] = zhao_cn0(config)
     out[paths.ZHAO_SPECTRUM] = zhao_spectrum(config)
     for prn in config["gps_jamming"]["prns"]:

@@ -80,6 +80,26 @@ def trace_dynamics_path(config: Mapping[str, Any], event: str) -> str:
     return f"{trace_results(config)}/dynamics/{event}.nc"
 
 
+# --- Susi et al. 2014 ----------------------------------------------------------------
+
+SUSI_RESULTS = "results/susi_2014"
+
+
+def susi_indices_path(scenario: str) -> str:
+    """S4 / Phi60 / Phi3 / T, p diagnostics of one Susi scenario (``scenario`` may be a wildcard)."""
+    return f"{SUSI_RESULTS}/indices/{scenario}.nc"
+
+
+def scenario_trace_path(config: Mapping[str, Any], scenario: str) -> str | None:
+    """The trace file a trace scenario reads, else None."""
+    sc = config["scenarios"][scenario]
+    if "trace" not in sc:
+        return None
+    from ..data.susi_traces import trace_file
+
+    return trace_file(config, sc["trace"]["name"])
+
+
 # --- Zhao et al.: the jammed GPS L1 C/A dataset and its results ------------------
 
 ZHAO_RESULTS = "results/zhao_jamming"

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..estimators.s4 import window_s4  # S4 lives in estimators.s4 (re-exported here)
+from ..estimators.sigma_phi import detrend_phase, window_sigma_phi  # noqa: F401  (sigma_phi lives in estimators.sigma_phi; re-exported here)
 
 GENERATOR_VERSION = "1"
 
@@ -75,20 +76,6 @@ def fresnel_propagate(phase: np.ndarray, dx: float, carrier_hz: float, height_m:
     k = 2 * np.pi * carrier_hz / C_LIGHT
     kappa = 2 * np.pi * np.fft.fftfreq(n, dx)
     return np.fft.ifft(np.fft.fft(np.exp(1j * phase)) * np.exp(-1j * kappa**2 * height_m / (2 * k)))
-
-
-def detrend_phase(theta: np.ndarray, ts: float, cutoff_hz: float = 0.1) -> np.ndarray:
-    """Phase high-passed by a zero-phase 6th-order Butterworth at ``cutoff_hz`` (the ISM receivers' detrending)."""
-    from scipy import signal  # imported where used: keeps importing the package (DAG parsing) light
-    sos = signal.butter(6, cutoff_hz, btype="highpass", fs=1.0 / ts, output="sos")
-    return signal.sosfiltfilt(sos, theta)
-
-
-def window_sigma_phi(theta: np.ndarray, ts: float, per_window: int, cutoff_hz: float = 0.1) -> np.ndarray:
-    """sigma_phi: std of the detrended phase (:func:`detrend_phase`), per window."""
-    hp = detrend_phase(theta, ts, cutoff_hz)
-    m = hp.size // per_window
-    return hp[: m * per_window].reshape(m, per_window).std(axis=1)
 
 
 def envelope(profile: Sequence[Sequence[float]], n: int, ts: float) -> np.ndarray:

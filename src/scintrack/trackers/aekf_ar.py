@@ -202,6 +202,7 @@ class AEKFAR:
     fold_mirror: bool = False
     record: tuple[str, ...] = field(default_factory=tuple)
 
+    SPEC_OVERRIDES = {"q_jerk_hz2_s3": "q_jerk_hz2_s3"}
     TRACKING_KEYS = ("adapt_hold", "adaptation_points", "amplitude", "cn0_dbhz", "noise_window", "p0_diag", "q_jerk_hz2_s3", "rho_p0", "s4_min_epochs", "s4_window", "theta_s_p0")
     SCHEMA = {
         "adaptive": {"type": "boolean", "description": "switch between tracking.adaptation_points on the on-line S4 (Sec. V-B)"},

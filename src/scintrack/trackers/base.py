@@ -137,7 +137,7 @@ def initial_state(init: TrackInit, n_state: int) -> np.ndarray:
 
 def spec_q_jerk(spec: Mapping[str, Any], context: TrackerContext) -> float:
     """The Doppler-jerk PSD: the spec's ``q_jerk_hz2_s3`` or the shared one."""
-    return float(spec.get("q_jerk_hz2_s3", context.tracking["q_jerk_hz2_s3"]))
+    return float(spec["q_jerk_hz2_s3"] if "q_jerk_hz2_s3" in spec else context.tracking["q_jerk_hz2_s3"])
 
 
 def spec_p0(context: TrackerContext) -> tuple[float, float, float]:

@@ -6,7 +6,10 @@ Vila-Valls et al. 2018 (Sec. IV-V) equations and the block that implements them:
   the block-diagonal F given by its non-zeros: :func:`predict` (and
   :func:`nonzeros` to list them);
 * scalar measurement update (discriminator KFs, ``H = [1, 0, 0, (1, 0..)]``,
-  Sec. V-A): :func:`scalar_update`;
+  Sec. V-A): :func:`scalar_update` (its ``P H^T`` and ``S``: :func:`innovation_terms`);
+  with a weighted gain and the Joseph covariance (Susi 2014, eq. 12):
+  :func:`weighted_scalar_update`; Susi's eq. (10) R: :func:`costas_variance`;
+  the (phase, frequency) white-noise Q of Susi's eqs. (3)-(8): :func:`phase_frequency_q`;
 * eqs. (13)-(14) I/Q (2 x 2) EKF update with the Jacobian of ``h(x) = A rho_s
   [cos(theta_d + theta_s), sin(theta_d + theta_s)]`` in closed form:
   :func:`iq_update`;
@@ -219,9 +222,9 @@ def predict(x, P, xp, FP, Q, kap, rows, cols, vals, count, use_kap):
 
 
 @njit(cache=True)
-def scalar_update(x, P, PH, H, R, nu):
-    """Scalar measurement: S = H P H^T + R, K = P H^T / S, x += K nu, P -= K (P H^T)^T."""
-    n = x.size
+def innovation_terms(P, H, R, PH):
+    """``PH = P H^T`` (written into ``PH``) and the innovation variance ``S = H P H^T + R`` of a scalar measurement."""
+    n = PH.size
     S = R
     for a in range(n):
         acc = 0.0
@@ -229,6 +232,14 @@ def scalar_update(x, P, PH, H, R, nu):
             acc += P[a, b] * H[b]
         PH[a] = acc
         S += H[a] * acc
+    return S
+
+
+@njit(cache=True)
+def scalar_update(x, P, PH, H, R, nu):
+    """Scalar measurement: S = H P H^T + R, K = P H^T / S, x += K nu, P -= K (P H^T)^T."""
+    n = x.size
+    S = innovation_terms(P, H, R, PH)
     for a in range(n):
         x[a] += PH[a] / S * nu
     for a in range(n):
@@ -319,3 +330,52 @@ def pll_step(phase, v, w, e, k3, k2, k1, ts):
     v_new = v + ts * (0.5 * (w_new + w) + k2 * e)
     f = 0.5 * (v_new + v) + k1 * e
     return phase + f * ts, v_new, w_new
+
+
+# --- Susi et al. 2014: eq. (10) R, the (phase, frequency) process noise, weighted gain --
+
+
+def _costas_variance(cn0_hz, ts):
+    """Susi eq. (10): ``R = 1/(2 C/N0 Ts) (1 + 1/(2 C/N0 Ts))`` [rad^2], the atan discriminator's variance."""
+    x = max(2.0 * cn0_hz * ts, 1e-6)
+    return (1.0 + 1.0 / x) / x
+
+
+costas_variance = njit(cache=True)(_costas_variance)
+costas_variance_ufunc = _Ufunc(_costas_variance, _F8_2)
+
+
+@njit(cache=True)
+def phase_frequency_q(s_phi, s_f, ts, out):
+    """Discrete Q of the state [phase (rad), frequency (Hz), rate] from white noises on
+    the phase (PSD ``s_phi``, rad^2/s) and on the frequency (``s_f``, Hz^2/s) of the
+    continuous model ``dphi/dt = 2 pi f + w_phi``, ``df/dt = a + w_f`` (Susi eqs. 3-4):
+
+    ``Q00 = s_phi T + (2 pi)^2 s_f T^3 / 3``, ``Q01 = 2 pi s_f T^2 / 2``, ``Q11 = s_f T``
+    (added to ``out``, a 3 x 3 array).  The same matrix as
+    :func:`scintrack.models.clock.process_noise` for a clock, in (rad, Hz).
+    """
+    c = 2.0 * math.pi
+    out[0, 0] += s_phi * ts + c * c * s_f * ts**3 / 3.0
+    out[0, 1] += c * s_f * ts**2 / 2.0
+    out[1, 0] += c * s_f * ts**2 / 2.0
+    out[1, 1] += s_f * ts
+
+
+@njit(cache=True)
+def weighted_scalar_update(x, P, PH, H, R, nu, w):
+    """Scalar update with the gain weighted by ``w`` (Susi eq. 12, ``K' = w K``).
+
+    ``S = H P H^T + R``, ``K = P H^T / S``, ``x += w K nu``, and the Joseph form
+    ``P = (I - w K H) P (I - w K H)^T + w^2 K R K^T``, which for a scalar
+    measurement is ``P -= (2 w - w^2) (P H^T)(P H^T)^T / S`` (the covariance of
+    the weighted, suboptimal filter; ``w = 1`` is the ordinary update).
+    """
+    n = x.size
+    S = innovation_terms(P, H, R, PH)
+    g = (2.0 * w - w * w) / S
+    for a in range(n):
+        x[a] += w * PH[a] / S * nu
+    for a in range(n):
+        for b in range(n):
+            P[a, b] -= g * PH[a] * PH[b]

@@ -80,6 +80,7 @@ def kf_kernel(y, prm):
     kap = np.zeros(n)
     out = np.empty((n_tr, k))
     r_out = np.empty((n_tr, k)) if prm.adaptive else np.empty((0, 0))
+    tot = np.empty((n_tr, k)) if n > 3 else np.empty((0, 0))
     buf2 = np.zeros(prm.window)
     buf4 = np.zeros(prm.window)
     x = np.empty(n)
@@ -117,7 +118,9 @@ def kf_kernel(y, prm):
                 R = prm.r_fixed
             blocks.scalar_update(x, P, PH, prm.H, R, nu)
             out[t, i] = x[0]
-    return out, r_out
+            if n > 3:
+                tot[t, i] = x[0] + x[3]
+    return out, r_out, tot
 
 
 @dataclass
@@ -173,8 +176,15 @@ class DiscriminatorKF:
 
     def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
         """Compiled loop (:func:`kf_kernel`)."""
-        out, r_out = kf_kernel(np.ascontiguousarray(y, dtype=complex), self.params(init))
-        return TrackOutput(theta_d=out, extras={"R": r_out} if self.adaptive_r else {})
+        out, r_out, tot = kf_kernel(np.ascontiguousarray(y, dtype=complex), self.params(init))
+        return TrackOutput(theta_d=out, extras=self._extras(r_out, tot))
+
+    def _extras(self, r_out: np.ndarray, total: np.ndarray) -> dict[str, np.ndarray]:
+        """``R`` (adaptive) and, with AR states, ``total_phase`` = theta_d + theta_s estimate (``H x``)."""
+        extras = {"R": r_out} if self.adaptive_r else {}
+        if self.ar_coefs is not None:
+            extras["total_phase"] = total
+        return extras
 
     def reference(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
         """Textbook Kalman filter in numpy, one time loop vectorised over trials.
@@ -192,6 +202,7 @@ class DiscriminatorKF:
         cn0 = StreamingM2M4(n_tr, self.cn0_window, prior_signal=self.amplitude**2, prior_noise=self.nominal_noise, min_epochs=M2M4_MIN_EPOCHS, floor_fraction=M2M4_FLOOR)
         out = np.empty((n_tr, k))
         r_out = np.empty((n_tr, k))
+        tot = np.empty((n_tr, k))
         for i in range(k):
             if i > 0:
                 x = F @ x
@@ -209,7 +220,8 @@ class DiscriminatorKF:
             x = x + K * nu[:, None, None]
             P = (eye - K @ H) @ P
             out[:, i] = x[:, 0, 0]
-        return TrackOutput(theta_d=out, extras={"R": r_out} if self.adaptive_r else {})
+            tot[:, i] = (H @ x)[:, 0, 0]
+        return TrackOutput(theta_d=out, extras=self._extras(r_out, tot))
 
     @classmethod
     def _common(cls, spec: Mapping[str, Any], context: TrackerContext, adaptive: bool) -> dict[str, Any]:
@@ -229,6 +241,7 @@ class KF(DiscriminatorKF):
 
     ADAPTIVE_R = False
     TRACKING_KEYS = KF_TRACKING_KEYS
+    SPEC_OVERRIDES = {"q_jerk_hz2_s3": "q_jerk_hz2_s3"}
     SCHEMA = {"q_jerk_hz2_s3": Q_JERK_SCHEMA}
 
     @classmethod
@@ -252,6 +265,7 @@ class AKFAR(DiscriminatorKF):
     """AKF-AR: the AKF with the AR(p) scintillation phase in the state."""
 
     TRACKING_KEYS = (*KF_TRACKING_KEYS, "theta_s_p0")
+    SPEC_OVERRIDES = {"q_jerk_hz2_s3": "q_jerk_hz2_s3"}
     SCHEMA = {"q_jerk_hz2_s3": Q_JERK_SCHEMA, "design": DESIGN_SCHEMA, "phase_order": PHASE_ORDER_SCHEMA}
 
     @classmethod

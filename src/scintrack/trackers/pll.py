@@ -17,7 +17,9 @@ Config: ``{type: pll, bandwidth_hz: 10}`` (default ``tracking.pll_bandwidth_hz``
 ``discriminator: atan`` selects the two-quadrant Costas discriminator
 ``atan(Q/I)`` for signals with data bits (Zhao et al.'s baseline; the error
 is then ambiguous by pi); the default ``atan2`` is the Vila-Valls pilot loop.
-``extras["frequency_hz"]`` is the loop's frequency command ``v / 2 pi``.
+``extras["frequency_hz"]`` is the loop's frequency command ``v / 2 pi`` and
+``extras["discriminator"]`` the discriminator output ``e_k`` (recomputed from
+the prompts and the NCO phases, the same numbers the loop used).
 """
 
 from __future__ import annotations
@@ -72,6 +74,7 @@ class PLL:
     discriminator: str = "atan2"
 
     TRACKING_KEYS = ("pll_bandwidth_hz",)
+    SPEC_OVERRIDES = {"bandwidth_hz": "pll_bandwidth_hz"}
     SCHEMA = {
         "bandwidth_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 50, "description": "loop noise bandwidth Bn [Hz] (default: tracking.pll_bandwidth_hz)"},
         "discriminator": {"enum": ["atan2", "atan"], "description": "atan2 (pilot, default) or atan (Costas, data-insensitive)"},
@@ -96,8 +99,15 @@ class PLL:
 
     def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
         """Compiled loop (:func:`pll_kernel`)."""
-        phase, freq = pll_kernel(np.ascontiguousarray(y, dtype=complex), self.params(init))
-        return TrackOutput(theta_d=phase, extras={"frequency_hz": freq})
+        y = np.ascontiguousarray(y, dtype=complex)
+        phase, freq = pll_kernel(y, self.params(init))
+        return TrackOutput(theta_d=phase, extras={"frequency_hz": freq, "discriminator": self.discriminator_output(y, phase)})
+
+    def discriminator_output(self, y: np.ndarray, phase: np.ndarray) -> np.ndarray:
+        """``e_k`` of every epoch: the discriminator of the prompt against the NCO phase that correlated it."""
+        if self.discriminator == "atan":
+            return blocks.atan_discriminator_ufunc(y.real, y.imag, phase)
+        return atan2_discriminator(y, phase)
 
     def reference(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
         """The same loop in numpy, vectorised over trials (the blocks applied to arrays)."""
@@ -114,4 +124,4 @@ class PLL:
             else:
                 e = atan2_discriminator(y[:, i], phase)
             phase, v, w = blocks.pll_step(phase, v, w, e, k3, k2, k1, prm.ts)
-        return TrackOutput(theta_d=out, extras={"frequency_hz": freq})
+        return TrackOutput(theta_d=out, extras={"frequency_hz": freq, "discriminator": self.discriminator_output(y, out)})

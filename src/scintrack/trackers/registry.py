@@ -115,8 +115,16 @@ def label(name: str, spec: Mapping[str, Any]) -> str:
 
 
 def tracking_keys(spec: Mapping[str, Any]) -> tuple[str, ...]:
-    """The ``config["tracking"]`` keys a tracker of this spec reads when it is built."""
-    return get(spec["type"]).tracking_keys
+    """The ``config["tracking"]`` keys a tracker of this spec reads when it is built.
+
+    A type may declare ``SPEC_OVERRIDES = {spec key: tracking key}``: a spec
+    that sets the key does not read the shared value (a PLL with its own
+    ``bandwidth_hz`` ignores ``tracking.pll_bandwidth_hz``), so changing the
+    shared value does not rerun its experiments.
+    """
+    kind = get(spec["type"])
+    overridden = {t for k, t in getattr(kind.cls, "SPEC_OVERRIDES", {}).items() if k in spec}
+    return tuple(k for k in kind.tracking_keys if k not in overridden)
 
 
 def spec_schema(type_name: str) -> dict[str, Any]:

@@ -1,0 +1,91 @@
+"""The scintillation traces of Susi et al. 2014's two 1-ms scenarios.
+
+* **High latitude** (the chapter's Sec. 4.1: SPLN model through a Spirent
+  simulator, "S4 at noise level", "very high Phi60"): always a SYNTHETIC
+  SURROGATE, a phase-screen realisation (:mod:`scintrack.signals.phase_screen`)
+  whose fast drift and steep spectrum give strong phase and weak amplitude
+  scintillation.  The SPLN output is not public.
+* **Equatorial** (Sec. 4.2: real JRC Hanoi data, "moderate amplitude and high
+  phase"): the real trace of ``real_event`` when the JRC traces are configured
+  (``real_traces.sources``; the canonical trace of Sec. VI-E, resampled to the
+  scenario's Ts), otherwise a labelled phase-screen SURROGATE with moderate S4.
+
+The surrogates are made by the same generator as the Sec. VI-E surrogate
+(:func:`scintrack.data.surrogate.surrogate_event`, L1 only) with the
+parameters of ``susi_2014.traces.<name>.surrogate`` (plus the shared screen
+geometry of ``real_traces.surrogate``); their version follows those
+parameters and the generator code.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from .surrogate import surrogate_params, surrogate_version
+
+FOLDER = "data/synthetic/susi_surrogate_{name}"
+
+
+def trace_spec(config: Mapping[str, Any], name: str) -> Mapping[str, Any]:
+    traces = config["susi_2014"]["traces"]
+    if name not in traces:
+        raise KeyError(f"susi_2014.traces has no trace {name!r} (known: {', '.join(traces)})")
+    return traces[name]
+
+
+def uses_real(config: Mapping[str, Any], name: str) -> bool:
+    """True when the trace comes from a configured real JRC event."""
+    event = trace_spec(config, name).get("real_event")
+    return bool(event) and event in config["real_traces"]["sources"]
+
+
+def susi_surrogate_params(config: Mapping[str, Any], name: str) -> dict[str, Any]:
+    """Generator parameters of one Susi surrogate (the Sec. VI-E generator's parameter set)."""
+    spec = trace_spec(config, name)
+    sur = dict(spec["surrogate"])
+    base = dict(config)
+    rt = dict(config["real_traces"])
+    rt["bands"] = ["L1"]
+    rt["fit_s"], rt["eval_s"] = 0.0, float(spec["duration_s"])
+    rt["surrogate"] = {**rt["surrogate"], "events": {f"susi_{name}": sur}, "window_s": float(spec.get("window_s", rt["surrogate"]["window_s"]))}
+    base["real_traces"] = rt
+    base["sampling"] = {**config["sampling"], "ts": float(spec["ts"])}
+    return surrogate_params(base, f"susi_{name}")
+
+
+def trace_input(config: Mapping[str, Any], name: str) -> dict[str, Any]:
+    """What the trace of one Susi scenario depends on (the rule params)."""
+    spec = trace_spec(config, name)
+    if uses_real(config, name):
+        event = spec["real_event"]
+        return {"real_event": event, "source": dict(config["real_traces"]["sources"][event]), "ts": float(spec["ts"]),
+                "trace_ts": float(config["sampling"]["ts"]), "duration_s": float(spec["duration_s"])}
+    return {"surrogate": susi_surrogate_params(config, name)}
+
+
+def trace_file(config: Mapping[str, Any], name: str) -> str:
+    spec = trace_spec(config, name)
+    if uses_real(config, name):
+        return f"data/traces/real/{spec['real_event']}.nc"
+    return f"{FOLDER.format(name=name)}/{surrogate_version(susi_surrogate_params(config, name))}.nc"
+
+
+def at_rate(ds: xr.Dataset, ts: float, band: str = "L1") -> tuple[np.ndarray, np.ndarray, str]:
+    """(amplitude, phase, source) of one band at the period ``ts``.
+
+    A trace already at ``ts`` is returned as stored; a real trace at another
+    rate is linearly interpolated (amplitude and unwrapped phase), which adds
+    nothing above the trace's own Nyquist frequency.
+    """
+    t = np.asarray(ds["time"].values, dtype=float)
+    rho = ds["amplitude"].sel(band=band).values.astype(float)
+    theta = ds["phase"].sel(band=band).values.astype(float)
+    step = float(np.median(np.diff(t))) if t.size > 1 else ts
+    if abs(step - ts) <= 1e-9 * ts:
+        return rho, theta, str(ds.attrs.get("source", "unknown"))
+    grid = np.arange(int(np.floor((t[-1] - t[0]) / ts)) + 1) * ts + t[0]
+    return np.interp(grid, t, rho), np.interp(grid, t, theta), str(ds.attrs.get("source", "unknown"))

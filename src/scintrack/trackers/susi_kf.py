@@ -1,0 +1,498 @@
+"""Susi, Andreotti & Aquino 2014: the AKF PLL and the SAKF PLL (types ``susi_akf``, ``susi_sakf``).
+
+One three-state Kalman filter on the discriminator output, two registered
+types (the SAKF is the AKF plus the scintillation blocks):
+
+* **State and dynamics** (eq. 3): ``x = [dphi (rad), df (Hz), da (Hz/s)]``,
+  ``F = [[1, 2 pi T, pi T^2], [0, 1, T], [0, 0, 1]]`` (the same F as every KF
+  of the package, :func:`.base.dynamics_F`).
+* **Process noise** (eqs. 4-6): the continuous white noises on phase,
+  frequency and rate have the diagonal PSD ``diag(S_dphi, S_df, S_da)``;
+  the clock terms are eq. (5) ``S_dphi = f_L1^2 h0 / 2`` and eq. (6)
+  ``S_df = f_L1^2 2 pi^2 h_-2`` of the configured oscillator
+  (:mod:`scintrack.models.clock` presets, Brown & Hwang's h-values; phase in
+  rad, i.e. eq. (5) times (2 pi)^2).  ``S_da`` is not given by the chapter
+  ("the frequency rate error is only due to the LOS dynamics"): we use the
+  Doppler-jerk PSD ``q_jerk_hz2_s3`` shared with the other KFs.  The discrete
+  Q is exact for this model: :func:`.base.dynamics_Q` for ``S_da`` plus
+  :func:`.blocks.phase_frequency_q` for ``S_dphi``, ``S_df``.
+* **Measurement** (eq. 9): ``y = atan(Q/I)`` of the prompt against the
+  predicted phase (``discriminator: atan``, the chapter's; ``atan2`` for
+  data-free signals), ``H = [1, 0, 0]``; **R** (eq. 10)
+  ``R = 1/(2 C/N0 Ts) (1 + 1/(2 C/N0 Ts))`` with the M2M4 C/N0 over the last
+  ``cn0_window_s`` (``r: nominal`` fixes it at the scenario's C/N0).
+* **SAKF** (eqs. 7, 8, 12): every ``update_s`` seconds the tracker's own
+  carrier phase over the last ``window_s`` (3 s = 3000 samples at 1 ms) is
+  detrended, its standard deviation is Phi3 and its periodogram gives the
+  power law ``T f^-p`` (:mod:`scintrack.estimators.power_law`).  Eq. (7)
+  adds ``S_dphi,scint = T f_irr^-p`` and eq. (8) ``S_df,scint = f_irr^2
+  S_dphi,scint`` (f_irr = 0.19 Hz; divided by (2 pi)^2 to go from rad to Hz,
+  the relation ``S_f = f^2 S_phi`` holding in cycles) to the clock PSDs, and
+  eq. (12) weights the gain, ``K' = w K`` with
+  ``w = alpha (1 + Phi3 / phi_ref)^-gamma`` (the chapter gives neither alpha
+  nor K(Phi3): this monotone form, falling with Phi3 for gamma > 0, is our
+  choice; ``alpha = 1, gamma = 0`` is no weighting).  The covariance of the
+  weighted filter is propagated in Joseph form
+  (:func:`.blocks.weighted_scalar_update`).
+
+Modelling choices (``docs/modelling-choices.md``, Susi section): the window is
+detrended by a least-squares quadratic (which removes the third-order
+dynamics exactly; a causal 0.1-Hz Butterworth would ring for tens of
+seconds after acquisition under a 100 Hz/s rate); Phi3, T and p are
+refreshed every ``update_s`` (0.1 s) rather than at every epoch (the window
+still slides: it always holds the last ``window_s``); before the first full
+window the scintillation PSDs are 0 and ``w = alpha``.
+
+The compiled kernel (:func:`susi_kernel`) processes the epochs between two
+refreshes for every trial and keeps its state across calls, so an AKF run
+in one call and the same filter run in 0.1-s pieces give the same bits.
+:meth:`SusiKF.reference` is the textbook numpy form (explicit F, Q, H, S,
+K, Joseph P).  Loop analysis for tests and docs: :func:`steady_state_gain`
+(``scipy.linalg.solve_discrete_are``), :func:`loop_bandwidth_hz` (discrete,
+from the closed-loop impulse response) and :func:`loop_bandwidth_closed_form`
+(continuous third-order loop).
+
+Config: ``{type: susi_akf, clock: ocxo}``,
+``{type: susi_sakf, clock: rubidium, gain_weighting: {alpha: 1.0, phi_ref_rad: 0.5, exponent: 1.0}}``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import numpy as np
+from numba import njit
+
+from ..estimators.cn0 import M2M4_FLOOR, M2M4_MIN_EPOCHS, StreamingM2M4, cn0_from_powers
+from ..models import clock as clock_models
+from . import blocks
+from .base import (
+    Q_JERK_SCHEMA,
+    TrackerContext,
+    TrackInit,
+    TrackOutput,
+    atan2_discriminator,
+    dynamics_F,
+    dynamics_Q,
+    initial_state,
+    spec_p0,
+    spec_q_jerk,
+)
+from .design import compose
+from .registry import register
+
+F_IRREGULARITY_HZ = 0.19  # Susi Sec. 3, after Forte & Radicella 2002
+RECORDABLE = ("discriminator", "frequency_hz", "R", "phi3", "T", "p", "weight")
+
+
+class SusiParams(NamedTuple):
+    """Everything :func:`susi_kernel` needs besides the prompts and the running state."""
+
+    P0: np.ndarray  # (3, 3)
+    Q_base: np.ndarray  # (3, 3) clock + rate terms
+    H: np.ndarray  # (3,)
+    adaptive: bool
+    r_fixed: float
+    costas: bool
+    window: int  # M2M4 window [epochs]
+    prior_signal: float
+    prior_noise: float
+    ts: float
+    min_epochs: int
+    floor_fraction: float
+    nz_rows: np.ndarray
+    nz_cols: np.ndarray
+    nz_vals: np.ndarray
+    nz_count: np.ndarray
+
+
+@njit(cache=True)
+def susi_kernel(y, i0, i1, prm, x_all, P_all, buf2, buf4, sums, counters, s_phi, s_f, weight, out, innov, freq, r_out):
+    """Epochs [i0, i1) of every trial; the state (x, P, M2M4 windows) is carried in the arrays.
+
+    ``s_phi``/``s_f``/``weight`` (per trial) are the scintillation PSDs of
+    eqs. (7)-(8) and the gain weight of eq. (12) in force over these epochs.
+    """
+    n_tr = y.shape[0]
+    rows, cols, vals, nnz = prm.nz_rows[0], prm.nz_cols[0], prm.nz_vals[0], prm.nz_count[0]
+    kap = np.zeros(3)
+    x = np.empty(3)
+    xp = np.empty(3)
+    P = np.empty((3, 3))
+    FP = np.empty((3, 3))
+    PH = np.empty(3)
+    Q = np.empty((3, 3))
+    for t in range(n_tr):
+        x[:] = x_all[t]
+        P[:, :] = P_all[t]
+        Q[:, :] = prm.Q_base
+        blocks.phase_frequency_q(s_phi[t], s_f[t], prm.ts, Q)
+        s2, s4 = sums[t, 0], sums[t, 1]
+        pos, count = counters[t, 0], counters[t, 1]
+        for i in range(i0, i1):
+            if i > 0:
+                blocks.predict(x, P, xp, FP, Q, kap, rows, cols, vals, nnz, False)
+            yr, yi = y[t, i].real, y[t, i].imag
+            if prm.costas:
+                nu = blocks.atan_discriminator(yr, yi, x[0])
+            else:
+                nu = blocks.atan2_discriminator(yr, yi, x[0])
+            if prm.adaptive:
+                p2 = yr * yr + yi * yi
+                pos, s2, s4, count = blocks.window_push(buf2[t], buf4[t], pos, s2, s4, count, p2, p2 * p2)
+                if count < prm.min_epochs:
+                    sig, noi = prm.prior_signal, prm.prior_noise
+                else:
+                    sig, noi = blocks.m2m4_split(s2 / count, s4 / count, prm.floor_fraction)
+                R = blocks.costas_variance(blocks.cn0_from_powers(sig, noi, prm.ts), prm.ts)
+            else:
+                R = prm.r_fixed
+            blocks.weighted_scalar_update(x, P, PH, prm.H, R, nu, weight[t])
+            out[t, i] = x[0]
+            innov[t, i] = nu
+            freq[t, i] = x[1]
+            r_out[t, i] = R
+        x_all[t] = x
+        P_all[t] = P
+        sums[t, 0], sums[t, 1] = s2, s4
+        counters[t, 0], counters[t, 1] = pos, count
+
+
+def quadratic_detrend(windows: np.ndarray) -> np.ndarray:
+    """Residual of a least-squares quadratic fit along the last axis (rows: trials)."""
+    n = windows.shape[-1]
+    m = np.linspace(-1.0, 1.0, n)
+    basis, _ = np.linalg.qr(np.stack([np.ones(n), m, m * m], axis=1))
+    w = windows - windows[..., :1]
+    return w - (w @ basis) @ basis.T
+
+
+@dataclass
+class GainWeighting:
+    """Eq. (12): ``w = alpha (1 + Phi3 / phi_ref)^-exponent``."""
+
+    alpha: float = 1.0
+    phi_ref_rad: float = 0.5
+    exponent: float = 1.0
+
+    def __call__(self, phi3: np.ndarray) -> np.ndarray:
+        return self.alpha * (1.0 + np.asarray(phi3) / self.phi_ref_rad) ** (-self.exponent)
+
+
+@dataclass
+class SusiKF:
+    SPEC_OVERRIDES = {"q_jerk_hz2_s3": "q_jerk_hz2_s3"}
+
+    ts: float
+    clock: str
+    q_jerk: float
+    nominal_cn0_hz: float
+    p0_diag: tuple[float, float, float]
+    amplitude: float = 1.0
+    discriminator: str = "atan"
+    adaptive_r: bool = True
+    cn0_window_s: float = 0.5
+    scintillation: bool = False  # the SAKF blocks (eqs. 7, 8, 12)
+    scintillation_q: bool = True  # eqs. (7)-(8) on (SAKF)
+    weighting: GainWeighting = field(default_factory=GainWeighting)
+    window_s: float = 3.0
+    update_s: float = 0.1
+    fit_band_hz: tuple[float, float] = (0.5, 5.0)
+    f_irregularity_hz: float = F_IRREGULARITY_HZ
+    record: tuple[str, ...] = ("discriminator", "frequency_hz", "phi3", "T", "p", "weight")
+
+    # --- model ---------------------------------------------------------------
+
+    def clock_psd(self) -> tuple[float, float]:
+        """(S_dphi in rad^2/s, S_df in Hz^2/s) of eqs. (5)-(6) for the oscillator."""
+        model = clock_models.preset(self.clock)
+        f0 = clock_models.F_L1_HZ
+        return (2 * math.pi * f0) ** 2 * model.s_f, f0**2 * model.s_g
+
+    def q_base(self) -> np.ndarray:
+        q = dynamics_Q(self.q_jerk, self.ts).copy()
+        blocks.phase_frequency_q(*self.clock_psd(), self.ts, q)
+        return q
+
+    def scint_psd(self, T: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Eqs. (7)-(8): (S_dphi,scint rad^2/s, S_df,scint Hz^2/s) from the power law at f_irr."""
+        s_phi = np.asarray(T) * self.f_irregularity_hz ** (-np.asarray(p))
+        s_phi = np.where(np.isfinite(s_phi), s_phi, 0.0)
+        return s_phi, self.f_irregularity_hz**2 * s_phi / (2 * math.pi) ** 2
+
+    @property
+    def nominal_noise(self) -> float:
+        return self.amplitude**2 / (self.nominal_cn0_hz * self.ts)
+
+    @property
+    def cn0_window(self) -> int:
+        return max(int(round(self.cn0_window_s / self.ts)), 1)
+
+    @property
+    def n_window(self) -> int:
+        return int(round(self.window_s / self.ts))
+
+    @property
+    def hop(self) -> int:
+        return max(int(round(self.update_s / self.ts)), 1)
+
+    def params(self) -> SusiParams:
+        F = dynamics_F(self.ts)
+        return SusiParams(
+            np.diag(np.asarray(self.p0_diag, dtype=float)), self.q_base(), np.array([1.0, 0.0, 0.0]), bool(self.adaptive_r),
+            float(blocks.costas_variance(self.nominal_cn0_hz, self.ts)), self.discriminator == "atan", self.cn0_window,
+            float(self.amplitude**2), float(self.nominal_noise), float(self.ts), M2M4_MIN_EPOCHS, M2M4_FLOOR, *blocks.nonzeros(F),
+        )
+
+    # --- the scintillation blocks (between kernel calls) ----------------------
+
+    def scintillation_update(self, phases: np.ndarray) -> dict[str, np.ndarray]:
+        """Phi3, T, p, the eq. (7)-(8) PSDs and the eq. (12) weight from the last window of carrier phases."""
+        from ..estimators.power_law import estimate_power_law
+
+        resid = quadratic_detrend(phases)
+        phi3 = resid.std(axis=-1)
+        _, T, p = estimate_power_law(resid, self.ts, window_s=resid.shape[-1] * self.ts, f_lo_hz=self.fit_band_hz[0], f_hi_hz=self.fit_band_hz[1])
+        T, p = T[:, 0], p[:, 0]
+        if self.scintillation_q:
+            s_phi, s_f = self.scint_psd(T, p)
+        else:
+            s_phi, s_f = np.zeros_like(phi3), np.zeros_like(phi3)
+        return {"phi3": phi3, "T": T, "p": p, "s_phi": s_phi, "s_f": s_f, "weight": self.weighting(phi3)}
+
+    def _initial_scint(self, n_tr: int) -> dict[str, np.ndarray]:
+        nan = np.full(n_tr, np.nan)
+        return {"phi3": nan, "T": nan, "p": nan, "s_phi": np.zeros(n_tr), "s_f": np.zeros(n_tr), "weight": np.full(n_tr, self.weighting.alpha)}
+
+    def _schedule(self, k: int) -> list[tuple[int, int]]:
+        hop = self.hop if self.scintillation else k
+        return [(i0, min(i0 + hop, k)) for i0 in range(0, k, hop)]
+
+    def _outputs(self, out, series) -> TrackOutput:
+        return TrackOutput(theta_d=out, extras={name: series[name] for name in self.record if name in series})
+
+    # --- compiled loop -------------------------------------------------------------
+
+    def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
+        y = np.ascontiguousarray(y, dtype=complex)
+        n_tr, k = y.shape
+        prm = self.params()
+        x = initial_state(init, 3)
+        P = np.broadcast_to(prm.P0, (n_tr, 3, 3)).copy()
+        w = prm.window
+        buf2, buf4 = np.zeros((n_tr, w)), np.zeros((n_tr, w))
+        sums = np.zeros((n_tr, 2))
+        counters = np.zeros((n_tr, 2), dtype=np.int64)
+        out, innov, freq, r_out = (np.empty((n_tr, k)) for _ in range(4))
+        series = {"discriminator": innov, "frequency_hz": freq, "R": r_out}
+        scint_names = ("phi3", "T", "p", "weight")
+        if self.scintillation:
+            series.update({name: np.full((n_tr, k), np.nan) for name in scint_names})
+        sc = self._initial_scint(n_tr)
+        for i0, i1 in self._schedule(k):
+            susi_kernel(y, i0, i1, prm, x, P, buf2, buf4, sums, counters, sc["s_phi"], sc["s_f"], sc["weight"], out, innov, freq, r_out)
+            if self.scintillation:
+                for name in scint_names:
+                    series[name][:, i0:i1] = sc[name][:, None]
+                if i1 >= self.n_window:
+                    sc = self.scintillation_update(out[:, i1 - self.n_window : i1])
+        return self._outputs(out, series)
+
+    # --- textbook form -------------------------------------------------------------
+
+    def reference(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
+        """Textbook numpy Kalman filter, vectorised over trials, same refresh schedule.
+
+        ``x = F x``, ``P = F P F^T + Q`` with ``Q = Q_clock,rate + Q(S_dphi,scint, S_df,scint)``;
+        ``nu = disc(y, H x)``, ``S = H P H^T + R``, ``K = P H^T / S``,
+        ``x += w K nu``, ``P = (I - w K H) P (I - w K H)^T + w^2 K R K^T``.
+        """
+        n_tr, k = y.shape
+        F = dynamics_F(self.ts)
+        H = np.array([[1.0, 0.0, 0.0]])
+        eye = np.eye(3)
+        q_base = self.q_base()
+        c = 2 * math.pi
+        x = initial_state(init, 3)[:, :, None]
+        P = np.broadcast_to(np.diag(np.asarray(self.p0_diag, dtype=float)), (n_tr, 3, 3)).copy()
+        cn0 = StreamingM2M4(n_tr, self.cn0_window, prior_signal=self.amplitude**2, prior_noise=self.nominal_noise, min_epochs=M2M4_MIN_EPOCHS, floor_fraction=M2M4_FLOOR)
+        out, innov, freq, r_out = (np.empty((n_tr, k)) for _ in range(4))
+        series = {"discriminator": innov, "frequency_hz": freq, "R": r_out}
+        scint_names = ("phi3", "T", "p", "weight")
+        if self.scintillation:
+            series.update({name: np.full((n_tr, k), np.nan) for name in scint_names})
+        sc = self._initial_scint(n_tr)
+        ts = self.ts
+        for i0, i1 in self._schedule(k):
+            sp, sf = sc["s_phi"], sc["s_f"]
+            Q = np.broadcast_to(q_base, (n_tr, 3, 3)).copy()
+            Q[:, 0, 0] += sp * ts + c * c * sf * ts**3 / 3
+            Q[:, 0, 1] += c * sf * ts**2 / 2
+            Q[:, 1, 0] += c * sf * ts**2 / 2
+            Q[:, 1, 1] += sf * ts
+            wgt = sc["weight"][:, None, None]
+            for i in range(i0, i1):
+                if i > 0:
+                    x = F @ x
+                    P = F @ P @ F.T + Q
+                yi = y[:, i]
+                if self.adaptive_r:
+                    sig, noi = cn0.update(yi)
+                    R = blocks.costas_variance_ufunc(cn0_from_powers(sig, noi, ts), ts)
+                else:
+                    R = np.full(n_tr, blocks.costas_variance(self.nominal_cn0_hz, ts))
+                phase = (H @ x)[:, 0, 0]
+                if self.discriminator == "atan":
+                    nu = blocks.atan_discriminator_ufunc(yi.real, yi.imag, phase)
+                else:
+                    nu = atan2_discriminator(yi, phase)
+                S = H @ P @ H.T + R[:, None, None]
+                K = wgt * (P @ H.T / S)
+                x = x + K * nu[:, None, None]
+                IKH = eye - K @ H
+                P = IKH @ P @ np.swapaxes(IKH, 1, 2) + K @ np.swapaxes(K, 1, 2) * R[:, None, None]
+                out[:, i], innov[:, i], freq[:, i], r_out[:, i] = x[:, 0, 0], nu, x[:, 1, 0], R
+            if self.scintillation:
+                for name in scint_names:
+                    series[name][:, i0:i1] = sc[name][:, None]
+                if i1 >= self.n_window:
+                    sc = self.scintillation_update(out[:, i1 - self.n_window : i1])
+        return self._outputs(out, series)
+
+    # --- construction ----------------------------------------------------------------
+
+    @classmethod
+    def _kwargs(cls, spec: Mapping[str, Any], context: TrackerContext) -> dict[str, Any]:
+        return dict(
+            ts=context.ts, clock=spec_clock(spec, context), q_jerk=spec_q_jerk(spec, context), nominal_cn0_hz=context.cn0_hz,
+            p0_diag=spec_p0(context), amplitude=float(context.tracking["amplitude"]), discriminator=str(spec.get("discriminator", "atan")),
+            adaptive_r=spec.get("r", "adaptive") == "adaptive", cn0_window_s=float(spec.get("cn0_window_s", 0.5)),
+        )
+
+
+def spec_clock(spec: Mapping[str, Any], context: TrackerContext) -> str:
+    """The oscillator preset: the spec's, or (``scenario``, the default) the scenario's
+    receiver clock, or ``ocxo`` on a scenario without one (the CSM scenarios have no clock noise)."""
+    name = str(spec.get("clock", "scenario"))
+    return str(context.scenario.get("clock") or "ocxo") if name == "scenario" else name
+
+
+SUSI_TRACKING_KEYS = ("amplitude", "cn0_dbhz", "p0_diag", "q_jerk_hz2_s3")
+AKF_SCHEMA = {
+    "clock": {"enum": ["scenario", *sorted(clock_models.PRESETS)], "description": "receiver oscillator of eqs. (5)-(6): a preset, or scenario (default: the scenario's clock, ocxo where it has none)"},
+    "discriminator": {"enum": ["atan", "atan2"], "description": "eq. (9) atan(Q/I) (default) or the four-quadrant atan2 for data-free signals"},
+    "r": {"enum": ["adaptive", "nominal"], "description": "eq. (10) at the on-line M2M4 C/N0 (default) or at the scenario's C/N0"},
+    "cn0_window_s": {"type": "number", "exclusiveMinimum": 0, "description": "M2M4 C/N0 window [s] (default 0.5)"},
+    "q_jerk_hz2_s3": Q_JERK_SCHEMA,
+}
+SAKF_SCHEMA = {
+    **AKF_SCHEMA,
+    "scintillation_q": {"type": "boolean", "description": "add eqs. (7)-(8) to Q (default true)"},
+    "window_s": {"type": "number", "exclusiveMinimum": 0, "description": "Phi3 / T, p window [s] (default 3)"},
+    "update_s": {"type": "number", "exclusiveMinimum": 0, "description": "refresh period of Phi3, T, p [s] (default 0.1)"},
+    "fit_band_hz": {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0}, "minItems": 2, "maxItems": 2,
+                    "description": "band of the power-law fit [Hz] (default [0.5, 5])"},
+    "f_irregularity_hz": {"type": "number", "exclusiveMinimum": 0, "description": "f of eqs. (7)-(8) (default 0.19 Hz)"},
+    "gain_weighting": {
+        "type": "object", "additionalProperties": False,
+        "properties": {
+            "alpha": {"type": "number", "exclusiveMinimum": 0, "maximum": 2},
+            "phi_ref_rad": {"type": "number", "exclusiveMinimum": 0},
+            "exponent": {"type": "number", "minimum": -2, "maximum": 4},
+        },
+        "description": "eq. (12) K' = alpha (1 + Phi3/phi_ref)^-exponent K (default alpha 1, phi_ref 0.5 rad, exponent 1)",
+    },
+}
+
+
+@register("susi_akf")
+class SusiAKF(SusiKF):
+    """AKF PLL: clock-only Q (eqs. 4-6), R from the monitored C/N0 (eq. 10)."""
+
+    TRACKING_KEYS = SUSI_TRACKING_KEYS
+    SCHEMA = AKF_SCHEMA
+
+    @classmethod
+    def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> SusiAKF:
+        return cls(**cls._kwargs(spec, context))
+
+    @staticmethod
+    def label(name: str, spec: Mapping[str, Any]) -> str:
+        return compose("AKF PLL", [str(spec["clock"])] if spec.get("clock", "scenario") != "scenario" else [])
+
+
+@register("susi_sakf")
+class SusiSAKF(SusiKF):
+    """SAKF PLL: the AKF plus the scintillation PSDs (eqs. 7-8) and the Phi3 gain weighting (eq. 12)."""
+
+    TRACKING_KEYS = SUSI_TRACKING_KEYS
+    SCHEMA = SAKF_SCHEMA
+
+    @classmethod
+    def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> SusiSAKF:
+        gw = dict(spec.get("gain_weighting", {}))
+        band = spec.get("fit_band_hz", (0.5, 5.0))
+        return cls(
+            **cls._kwargs(spec, context), scintillation=True, scintillation_q=bool(spec.get("scintillation_q", True)),
+            weighting=GainWeighting(float(gw.get("alpha", 1.0)), float(gw.get("phi_ref_rad", 0.5)), float(gw.get("exponent", 1.0))),
+            window_s=float(spec.get("window_s", 3.0)), update_s=float(spec.get("update_s", 0.1)), fit_band_hz=(float(band[0]), float(band[1])),
+            f_irregularity_hz=float(spec.get("f_irregularity_hz", F_IRREGULARITY_HZ)),
+        )
+
+    @staticmethod
+    def label(name: str, spec: Mapping[str, Any]) -> str:
+        gw = spec.get("gain_weighting", {})
+        quals = [str(spec["clock"])] if spec.get("clock", "scenario") != "scenario" else []
+        if "alpha" in gw:
+            quals.append(f"alpha = {float(gw['alpha']):g}")
+        if "exponent" in gw:
+            quals.append(f"gamma = {float(gw['exponent']):g}")
+        if spec.get("scintillation_q") is False:
+            quals.append("no scint. Q")
+        return compose("SAKF PLL", quals)
+
+
+# --- loop analysis (tests, docs) --------------------------------------------------------
+
+
+def steady_state_gain(tracker: SusiKF, cn0_hz: float | None = None) -> np.ndarray:
+    """Steady-state Kalman gain for fixed Q (clock + rate terms) and R = eq. (10) at ``cn0_hz``.
+
+    ``P`` (prior) solves the discrete algebraic Riccati equation
+    ``P = F P F^T - F P H^T (H P H^T + R)^-1 H P F^T + Q``
+    (``scipy.linalg.solve_discrete_are(F^T, H^T, Q, R)``); ``K = P H^T / (H P H^T + R)``.
+    """
+    from scipy.linalg import solve_discrete_are
+
+    F = dynamics_F(tracker.ts)
+    H = np.array([[1.0, 0.0, 0.0]])
+    R = float(blocks.costas_variance(tracker.nominal_cn0_hz if cn0_hz is None else cn0_hz, tracker.ts))
+    P = solve_discrete_are(F.T, H.T, tracker.q_base(), np.array([[R]]))
+    return (P @ H.T / (H @ P @ H.T + R))[:, 0]
+
+
+def loop_bandwidth_hz(K: np.ndarray, ts: float, n: int = 200_000) -> float:
+    """Noise bandwidth of the steady-state filter as a loop: ``B = sum(h^2) / (2 Ts)`` of the
+    impulse response from the measured phase to the phase estimate (unit DC gain)."""
+    from scipy import signal
+
+    F = dynamics_F(ts)
+    H = np.array([[1.0, 0.0, 0.0]])
+    K = np.asarray(K, dtype=float)[:, None]
+    A = (np.eye(3) - K @ H) @ F  # x+_k = (I - K H) F x+_{k-1} + K z_k
+    _, h = signal.dimpulse((A, K, H, np.zeros((1, 1)), ts), n=n)
+    h = np.asarray(h[0]).ravel()
+    return float(np.sum(h**2) / (2 * ts))
+
+
+def loop_bandwidth_closed_form(K: np.ndarray, ts: float) -> float:
+    """Continuous third-order loop with the same gains: ``c1 = k1/T``, ``c2 = 2 pi k2/T``,
+    ``c3 = 2 pi k3/T`` in ``H(s) = (c1 s^2 + c2 s + c3)/(s^3 + c1 s^2 + c2 s + c3)``, whose
+    noise bandwidth is ``B = (c1^2 c2 + c2^2 - c1 c3) / (4 (c1 c2 - c3))`` Hz (Kaplan's
+    ``omega_0 (a3 b3^2 + a3^2 - b3) / (4 (a3 b3 - 1))`` in these coefficients)."""
+    k1, k2, k3 = (float(v) for v in K)
+    c1, c2, c3 = k1 / ts, 2 * math.pi * k2 / ts, 2 * math.pi * k3 / ts
+    return (c1 * c1 * c2 + c2 * c2 - c1 * c3) / (4.0 * (c1 * c2 - c3))

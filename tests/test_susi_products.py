@@ -1,0 +1,215 @@
+"""Susi 2014 tables/figures and the cross-paper ranking on small constructed results (no Snakemake)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from scintrack.experiments.metrics import Z95
+from scintrack.tables import ranking, susi_2014
+
+LABELS = {"susi_pll": "PLL (Bn = 15 Hz)", "susi_akf": "AKF PLL", "susi_sakf": "SAKF PLL", "pll": "PLL", "kf": "KF", "akf": "AKF",
+          "susi_sakf_a0.5": "SAKF PLL (alpha = 0.5)", "zhao_mm": "MM KF"}
+
+
+def result(experiment, scenario, trackers, *, jitter=None, rmse=None, trials=4, windows=3, window_s=2.0, steady_s=2.0, ts=0.001,
+           trace="high_latitude", seed=0, n_time=60, events=None, rmse_total=None):
+    """A merged experiment result of the documented layout; ``jitter``: {tracker: (trial, window)} discriminator jitter."""
+    rng = np.random.default_rng(seed)
+    nt = len(trackers)
+    jd = np.full((nt, trials, windows), np.nan)
+    for j, tr in enumerate(trackers):
+        if jitter is not None and tr in jitter:
+            jd[j] = jitter[tr]
+    rm = np.asarray([rmse.get(tr, 0.5) if rmse else 0.5 for tr in trackers], float)
+    steady = np.stack([rm, rm * 1.5], axis=1)
+    tot = np.asarray([rmse_total.get(tr, 0.1) if rmse_total else 0.1 for tr in trackers], float)
+    ds = xr.Dataset(
+        {
+            "steady_rmse": (("tracker", "kind"), steady),
+            "steady_rmse_lo": (("tracker", "kind"), steady * 0.95),
+            "steady_rmse_hi": (("tracker", "kind"), steady * 1.05),
+            "ms_steady": (("tracker", "kind", "trial"), np.repeat(steady[:, :, None] ** 2, trials, axis=2)),
+            "slips": (("tracker", "trial"), np.zeros((nt, trials), int)),
+            "slip_events": (("tracker", "trial"), np.zeros((nt, trials), int) if events is None else np.asarray(events)),
+            "steady_rmse_total": (("tracker",), tot),
+            "steady_rmse_total_lo": (("tracker",), tot * 0.95),
+            "steady_rmse_total_hi": (("tracker",), tot * 1.05),
+            "slip_events_total": (("tracker", "trial"), np.zeros((nt, trials), int)),
+            "jitter_discriminator": (("tracker", "trial", "window"), jd),
+            "jitter_tracking": (("tracker", "trial", "window"), jd / 2),
+            "example_discriminator": (("tracker", "time"), rng.normal(0, 0.1, (nt, n_time))),
+            "example_frequency": (("tracker", "time"), 100 + rng.normal(0, 0.1, (nt, n_time))),
+            "example_frequency_true": (("time",), 100 + rng.normal(0, 0.1, n_time)),
+            "example_error": (("tracker", "time"), rng.normal(0, 0.1, (nt, n_time))),
+            "phi3_mean": (("tracker", "time"), np.where(np.array(trackers)[:, None] == "susi_sakf", 0.3, np.nan) * np.ones((nt, n_time))),
+            "p_mean": (("tracker", "time"), np.full((nt, n_time), 2.5)),
+            "T_mean": (("tracker", "time"), np.full((nt, n_time), 1e-3)),
+            "weight_mean": (("tracker", "time"), np.where(np.array(trackers)[:, None] == "susi_sakf", 0.6, np.nan) * np.ones((nt, n_time))),
+            "example_trial": ((), 0),
+            "n_trials": ((), trials),
+        },
+        coords={"tracker": list(trackers), "kind": ["wrapped", "unwrapped"], "trial": np.arange(trials),
+                "time": (np.arange(n_time) + 0.5) * 0.1, "window": (np.arange(windows) + 0.5) * window_s},
+        attrs={"experiment": experiment, "scenario": scenario, "tracker_labels": json.dumps({t: LABELS.get(t, t) for t in trackers}),
+               "cn0_dbhz": 45.0, "ts": ts, "fd0_hz": 100.0, "fr_hz_s": 0.0, "steady_state_start_s": steady_s,
+               "stats_block_epochs": int(round(0.1 / ts))},
+    )
+    if trace is not None:
+        ds.attrs.update({"trace_source": "surrogate", "trace_name": trace})
+    else:
+        for v in ("jitter_discriminator", "jitter_tracking"):
+            ds[v][:] = np.nan
+    return ds
+
+
+def chapter(pll, akf, sakf, scenario="susi_high_latitude", trace="high_latitude"):
+    return result("susi_chapter", scenario, ["susi_pll", "susi_akf", "susi_sakf"], trace=trace,
+                  jitter={"susi_pll": pll, "susi_akf": akf, "susi_sakf": sakf})
+
+
+def _jit(rng, level, trials=4, windows=3, spread=0.01):
+    return level + spread * rng.standard_normal((trials, windows))
+
+
+def test_jitter_table_paired_difference_matches_hand_computation():
+    rng = np.random.default_rng(1)
+    pll, akf, sakf = _jit(rng, 0.2), _jit(rng, 0.15), _jit(rng, 0.1)
+    pll[:, 0] = 50.0  # the first window ends at the steady-state start: excluded from the table
+    long = susi_2014.jitter_long([chapter(pll, akf, sakf)])
+    row = long[(long.tracker == "susi_akf") & (long.metric == "discriminator")].iloc[0]
+    d = akf[:, 1:].mean(axis=1) - pll[:, 1:].mean(axis=1)
+    half = Z95 * d.std(ddof=1) / np.sqrt(d.size)
+    assert row.windows == 2 and row.trials == 4
+    assert row.minus_pll_rad == pytest.approx(d.mean()) and row.minus_pll_ci95_lo == pytest.approx(d.mean() - half)
+    assert row.minus_pll_ci95_hi == pytest.approx(d.mean() + half)
+    assert row.jitter_rad == pytest.approx(akf[:, 1:].mean())
+    track = long[(long.tracker == "susi_akf") & (long.metric == "tracking")].iloc[0]
+    assert track.minus_pll_rad == pytest.approx(d.mean() / 2)  # tracking jitter = discriminator / 2 in the fixture
+    ref = long[(long.tracker == "susi_pll") & (long.metric == "discriminator")].iloc[0]
+    assert np.isnan(ref.minus_pll_rad)
+    tables = susi_2014.susi_table_jitter(chapter(pll, akf, sakf))
+    grid, title, note = tables["table_jitter"]
+    assert "SURROGATE" in title and "SURROGATE" in note and "2-s windows" in note and "4 trials" in note
+    assert len(grid) == 3
+
+
+def test_verdicts():
+    assert susi_2014.verdict([(-0.2, -0.3, -0.1), (-0.1, -0.15, -0.05)]) == "holds"
+    assert susi_2014.verdict([(-0.2, -0.3, -0.1), (-0.01, -0.05, 0.03)]) == "inconclusive"
+    assert susi_2014.verdict([(-0.2, -0.3, -0.1), (0.1, 0.05, 0.15)]) == "does not hold"
+    assert susi_2014.verdict([(np.nan,) * 3]) == "not evaluated"
+
+
+def test_claim_verdict_flips_when_the_numbers_flip():
+    rng = np.random.default_rng(2)
+    pll, akf, sakf = _jit(rng, 0.3), _jit(rng, 0.2), _jit(rng, 0.1)
+    claims = susi_2014.claims_frame([chapter(pll, akf, sakf)]).set_index("claim")
+    assert set(claims["verdict (discriminator jitter)"]) == {"holds"}
+    assert "Fig. 5" in claims.loc["both KF PLLs have lower jitter than the PLL", "chapter"]
+    flipped = susi_2014.claims_frame([chapter(sakf, akf, pll)]).set_index("claim")  # SAKF now has the PLL's (high) jitter
+    assert set(flipped["verdict (discriminator jitter)"]) == {"does not hold"}
+    # SAKF ~ AKF (the same up to noise well inside the interval): "lowest" is inconclusive, "both below the PLL" still holds
+    same = susi_2014.claims_frame([chapter(pll, akf, akf + 1e-3 * rng.standard_normal(akf.shape))]).set_index("claim")
+    assert same.loc["SAKF has the lowest jitter", "verdict (discriminator jitter)"] == "inconclusive"
+    assert same.loc["both KF PLLs have lower jitter than the PLL", "verdict (discriminator jitter)"] == "holds"
+
+
+def test_alpha_table_pairs_variants_with_the_chapter_sakf():
+    rng = np.random.default_rng(3)
+    pll, akf, sakf = _jit(rng, 0.3), _jit(rng, 0.2), _jit(rng, 0.1)
+    var = _jit(rng, 0.12)
+    alpha = result("susi_alpha", "susi_high_latitude", ["susi_sakf_a0.5"], jitter={"susi_sakf_a0.5": var}, events=[[0, 1, 2, 3]])
+    long = susi_2014.alpha_long([chapter(pll, akf, sakf), alpha]).set_index("tracker")
+    assert list(long.index) == ["susi_akf", "susi_sakf", "susi_sakf_a0.5"]
+    d = var[:, 1:].mean(axis=1) - sakf[:, 1:].mean(axis=1)
+    assert long.loc["susi_sakf_a0.5", "discriminator_minus_sakf_rad"] == pytest.approx(d.mean())
+    assert np.isnan(long.loc["susi_sakf", "discriminator_minus_sakf_rad"])
+    assert long.loc["susi_sakf_a0.5", "slip_events"] == pytest.approx(1.5)
+    assert long.loc["susi_sakf", "mean_weight"] == pytest.approx(0.6)
+    out = susi_2014.susi_table_alpha(chapter(pll, akf, sakf), alpha)
+    assert "minus SAKF" in out["table_alpha"][2]
+
+
+def _ranking_results():
+    csm = dict(trace=None, ts=0.01)
+    return [
+        chapter(*(np.full((4, 3), v) for v in (0.3, 0.2, 0.1))),
+        result("susi_cross", "susi_high_latitude", ["pll", "zhao_mm"], rmse={"pll": 0.4, "zhao_mm": 1.8}),
+        result("case2_steady_state", "s4_0.9_tau0_0.1", ["pll", "kf", "akf"], rmse={"pll": 0.7, "kf": 0.5, "akf": 0.6}, trials=10, **csm),
+        result("cross_mm_csm", "s4_0.9_tau0_0.1", ["pll", "zhao_mm"], rmse={"pll": 0.2, "zhao_mm": 1.2}, trials=5, **csm),
+        result("susi_on_csm", "s4_0.9_tau0_0.1", ["susi_pll"], rmse={"susi_pll": 0.55}, trials=8, events=[[1, 1, 1, 1, 1, 1, 1, 1]], **csm),
+    ]
+
+
+def test_ranking_ranks_by_rmse_and_keeps_the_run_with_more_trials():
+    res = _ranking_results()
+    res[0]["steady_rmse"].loc[{"kind": "wrapped"}] = [0.8, 0.3, 0.6]  # susi_pll, susi_akf, susi_sakf
+    res[0]["steady_rmse_total"][:] = [0.05, 0.2, 0.1]  # the total-phase ranking is its own: here the reverse
+    long = ranking.ranking_long(res)
+    first = long[(long.scenario == res[0].attrs["scenario"]) & long.tracker.isin(["susi_pll", "susi_akf", "susi_sakf"])].set_index("tracker")
+    assert first.loc["susi_pll", "rank_total"] < first.loc["susi_sakf", "rank_total"] < first.loc["susi_akf", "rank_total"]
+    assert first.loc["susi_akf", "rank"] < first.loc["susi_sakf", "rank"] < first.loc["susi_pll", "rank"]
+    for _, g in long.groupby("scenario"):
+        assert sorted(g["rank"]) == list(range(1, len(g) + 1))
+        assert list(g.sort_values("rank")["rmse_wrapped_rad"]) == sorted(g["rmse_wrapped_rad"])
+    csm = long[long.scenario == "s4_0.9_tau0_0.1"].set_index("tracker")
+    assert csm.loc["pll", "trials"] == 10 and csm.loc["pll", "rmse_wrapped_rad"] == pytest.approx(0.7)  # not cross_mm_csm's 0.2 (5 trials)
+    assert "cross_mm_csm (5 trials)" in csm.loc["pll", "dropped_duplicate"]
+    assert list(csm.sort_values("rank").index) == ["kf", "susi_pll", "akf", "pll", "zhao_mm"]
+    assert csm.loc["susi_pll", "slip_events_per_min"] == pytest.approx(1 / (60 * 0.1 / 60))  # 1 event in a 6-s run
+    assert set(long[long.scenario == "susi_high_latitude"]["ts_ms"]) == {1.0} and set(csm["ts_ms"]) == {10.0}
+    high = long[long.scenario == "susi_high_latitude"].set_index("tracker")
+    assert high.loc["zhao_mm", "near_uniform"] and not high.loc["pll", "near_uniform"] and high.loc["zhao_mm", "rank"] == 5
+    summary = ranking.ranking_summary(long).set_index("tracker")
+    assert summary.loc["kf", "mean_rank"] == 1 and summary.loc["kf", "scenarios"] == 1
+    assert summary.loc["pll", "mean_rank"] == pytest.approx((2 + 4) / 2) and summary.loc["pll", "scenarios"] == 2
+    assert summary.loc["pll", "mean_rank_1ms"] == 2 and summary.loc["pll", "mean_rank_10ms"] == 4
+    assert list(ranking.ranking_summary(long)["mean_rank"]) == sorted(summary["mean_rank"])
+    out = ranking.table_ranking(*res)
+    note = out["table_ranking"][2]
+    assert "Vila-Valls" in note and "jitter" in note and "10 (1 scenario)" in note and "SURROGATE" in out["table_ranking"][1]
+
+
+def test_surrogate_switches():
+    config = {
+        "scenarios": {"susi_high_latitude": {"trace": {"name": "high_latitude"}}, "susi_equatorial": {"trace": {"name": "equatorial"}},
+                      "s4_0.9_tau0_0.1": {}},
+        "susi_2014": {"traces": {"high_latitude": {}, "equatorial": {"real_event": "event1"}}},
+        "real_traces": {"sources": {}},
+        "experiments": {"susi_chapter": {"scenarios": ["susi_high_latitude", "susi_equatorial"]}, "case2_steady_state": {"scenarios": ["s4_0.9_tau0_0.1"]}},
+    }
+    from scintrack.products import get
+
+    assert get("susi_fig06").suffix(config) == "_surrogate" and get("table_ranking").suffix(config) == "_surrogate"
+    config["real_traces"]["sources"] = {"event1": {"path": "x.nc"}}
+    assert get("susi_fig06").suffix(config) == "" and get("susi_fig03").suffix(config) == "_surrogate"
+    assert get("table_ranking").suffix(config) == "_surrogate"  # the high-latitude trace is never real
+    assert set(get("table_ranking").inputs(config)) == {"susi_chapter__susi_high_latitude", "susi_chapter__susi_equatorial",
+                                                        "case2_steady_state__s4_0.9_tau0_0.1"}
+
+
+def test_figures_render(tmp_path):
+    from scintrack.figures import ranking as rfig
+    from scintrack.figures import susi_2014 as figs
+    from scintrack.figures.common import save_figure
+
+    rng = np.random.default_rng(4)
+    res = chapter(_jit(rng, 0.3), _jit(rng, 0.2), _jit(rng, 0.1))
+    eq = chapter(_jit(rng, 0.3), _jit(rng, 0.2), _jit(rng, 0.1), scenario="susi_equatorial", trace="equatorial")
+    w = np.array([1.0, 3.0, 5.0])
+    ind = xr.Dataset({"s4_true": ("window", [0.1, 0.2, 0.1]), "phi60_true": ("window", [1.0, 1.2, 0.9]), "s4_receiver": ("window", [0.12, 0.2, 0.1]),
+                      "phi60_receiver": ("window", [np.nan, 1.1, 0.9]), "phi3_true": ("grid", np.full(60, 0.3)), "T_true": ("tp_time", [1e-3, 2e-3]),
+                      "p_true": ("tp_time", [2.0, 2.5])},
+                     coords={"window": w, "grid": np.arange(60) * 0.1, "tp_time": [3.0, 4.0]},
+                     attrs={"scenario": "susi_high_latitude", "window_s": 2.0, "phi3_window_s": 3.0, "trial": 0, "cn0_dbhz": 45.0, "ts": 0.001,
+                            "monitor_tracker": "susi_pll", "trace_source": "surrogate"})
+    for fig in (figs.susi_fig03(ind), figs.susi_fig04(res), figs.susi_fig05(res), figs.susi_fig07(eq), figs.susi_sakf_monitor(res, ind),
+                rfig.fig_ranking(*_ranking_results())):
+        texts = " ".join(t.get_text() for t in fig.texts + [a.title for a in fig.axes])
+        save_figure(fig, [tmp_path / "x.png"])
+        assert (tmp_path / "x.png").stat().st_size > 10_000
+        assert "SURROGATE" in texts
