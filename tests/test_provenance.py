@@ -59,6 +59,8 @@ def test_fresh_clone_plans_the_whole_dag_for_archive(tmp_path):
         "zhao_channel": len(config["gps_jamming"]["prns"]), "zhao_receiver": 1,
         "zhao_cn0_sweep_point": len(config["zhao_receiver"]["cn0_sweep"]["cn0_dbhz"]),
         "susi_surrogate": len(config["susi_2014"]["traces"]), "susi_indices": len(params.susi_scenarios(config)),
+        "vv_floors": len(config["floors"]["scenarios"]),
+        **({"ar_fit_wrapped": len(config["ar_training"]["s4"]), "ar_lut_wrapped": 1} if any(e.get("lut") == "wrapped" for e in exps) else {}),
         **{name: 1 for name in products()},  # every registered figure and table
     }
     assert planned == expected

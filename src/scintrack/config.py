@@ -131,6 +131,10 @@ def check_consistency(config: Mapping[str, Any], source: str = "config/config.ya
         )
     _check_experiments(config, source)
     _check_real_traces(config, source)
+    for name in config["floors"]["scenarios"]:
+        sc = config["scenarios"].get(name)
+        if sc is None or len(sc["segments"]) != 1:
+            raise ConfigError(f"invalid config value at 'floors.scenarios': {name!r} must be a scenario with one (S4, tau0) segment; fix it in {source}")
     n_epochs = config["ar_training"]["duration_s"] / config["sampling"]["ts"]
     if n_epochs < 20 * max(max_order, config["ar_models"]["pacf_lags"]):
         raise ConfigError(

@@ -39,6 +39,8 @@ PRODUCT_MODULES = (
     "scintrack.tables.susi_2014",
     "scintrack.figures.ranking",
     "scintrack.tables.ranking",
+    "scintrack.figures.vila_valls_2018_aekf",
+    "scintrack.tables.vila_valls_2018_aekf",
 )
 
 #: Report category of each paper (``Product.paper`` -> title).

@@ -50,3 +50,54 @@ rule ar_diagnostics:
         "logs/vila_valls_2018/ar_diagnostics.log",
     script:
         "../scripts/ar_diagnostics.py"
+
+
+# Reading R5 of the Vila-Valls simulation (issue 13): the same fits with the
+# phase models fitted on the wrapped phase, only when an experiment asks for
+# them (experiments.<name>.lut: wrapped).
+rule ar_fit_wrapped:
+    """AR fits of one training set with the phase models on the wrapped phase."""
+    input:
+        lambda wc: training_path(wc.s4),
+    output:
+        "results/ar_models/wrapped/fits/s4-{s4}.nc",
+    params:
+        fit=lambda wc: P.ar_fit(config, wc.s4, "wrapped"),
+        code=code("fit_ar.py"),
+    log:
+        "logs/ar_models/wrapped/fit_s4-{s4}.log",
+    script:
+        "../scripts/fit_ar.py"
+
+
+rule ar_lut_wrapped:
+    """The AR look-up table of the wrapped-phase fits (reading R5)."""
+    input:
+        [paths.ar_fit_path(s4, "wrapped") for s4 in TRAIN_S4],
+    output:
+        paths.AR_LUT_WRAPPED,
+    params:
+        lut=P.ar_lut(config, "wrapped"),
+        code=code("merge_lut.py"),
+    log:
+        "logs/ar_models/wrapped/ar_lut.log",
+    script:
+        "../scripts/merge_lut.py"
+
+
+# Issue 13: achievability floors of the theta_d error per Table III cell.
+rule vv_floors:
+    """Riccati bound of the AEKF-AR's model and GLS floors in the CSM world (readings R1, R2) for one cell."""
+    input:
+        lut=AR_LUT,
+    output:
+        paths.floors_path("{scenario}"),
+    params:
+        run=lambda wc: P.floors(config, wc.scenario),
+        code=code("floors.py"),
+    log:
+        "logs/vila_valls_2018/floors_{scenario}.log",
+    benchmark:
+        "results/benchmarks/vv_floors/{scenario}.tsv"
+    script:
+        "../scripts/floors.py"

@@ -105,8 +105,8 @@ def experiment_params(wc):
 
 
 def shard_inputs(wc):
-    """The AR look-up table, and the trace of a trace scenario (Susi 2014)."""
-    out = {"lut": AR_LUT}
+    """The AR look-up table (wrapped-phase fits when the experiment says ``lut: wrapped``), and the trace of a trace scenario (Susi 2014)."""
+    out = {"lut": paths.lut_path(config["experiments"][wc.experiment].get("lut", "unwrapped"))}
     try:
         trace = paths.scenario_trace_path(config, wc.scenario)
     except KeyError as exc:

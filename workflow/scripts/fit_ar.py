@@ -8,7 +8,10 @@ sm = snakemake  # noqa: F821
 log = runlog.setup(sm.log[0], "ar_fit")
 ar = sm.params.fit["ar_models"]
 train = open_dataset(sm.input[0])
-fits = fit_training_set(train, ar["max_order"], ar["pacf_lags"], ar["pacf_alpha"], ar["pacf_lengths_s"])
+wrapped = sm.params.fit.get("phase", "unwrapped") == "wrapped"
+fits = fit_training_set(train, ar["max_order"], ar["pacf_lags"], ar["pacf_alpha"], ar["pacf_lengths_s"], wrap_phase=wrapped)
+if wrapped:
+    fits.attrs["phase_fitted"] = "wrapped angle(exp(j theta)) (reading R5)"
 fits.attrs.update(provenance(config=sm.params.fit, inputs=sm.input))
 fits.attrs["ts"] = train.attrs["ts"]
 write_netcdf(fits, sm.output[0])

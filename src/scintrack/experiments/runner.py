@@ -11,7 +11,10 @@ separate jobs (or on a cluster) and be combined exactly by :func:`merge`:
   events per trial (see :mod:`.metrics`);
 * ``example_error`` (tracker, time): the unwrapped error of the shard's first
   trial (Fig. 16 shows one realisation);
-* ``s4_true`` (time) and, for adaptive trackers, ``s4_hat_mean`` (tracker, time);
+* ``s4_true`` (time) and, for adaptive trackers, ``s4_hat_mean`` (tracker, time)
+  and ``s4_hat_median`` (tracker, trial), each trial's median over the
+  steady-state window (robust to the epochs where the M2M4-corrected estimate
+  explodes);
 * for trackers that report their discriminator output (the PLL and the Susi
   KF PLLs, Susi et al. 2014): ``jitter_discriminator`` (tracker, trial,
   window), the standard deviation of the discriminator output over
@@ -33,6 +36,16 @@ itself for every other tracker (they track the total phase).
 ``ms_total_steady`` (tracker, trial) over the steady-state window (wrapped
 error) and ``slip_events_total`` / ``slips_total`` (tracker, trial).
 
+Lock (every tracker): the standard narrow-band phase lock detector on the
+prompts de-rotated by the tracker's total-phase estimate, over consecutive
+blocks of ``tracking.lock_window_s`` (0.2 s): ``C2phi = ((sum I)^2 -
+(sum Q)^2) / ((sum I)^2 + (sum Q)^2)`` (``cos 2 dphi`` without noise), and,
+since every signal here is a pilot, ``sum I > 0``; a block is in lock when
+both hold with ``C2phi >= tracking.lock_threshold`` (0.85, |dphi| < 16 deg).
+``time_in_lock`` (tracker, trial) is the fraction of blocks in lock in the
+steady-state window, so an RMSE near pi/sqrt(3) can be read as what it is (a
+tracker out of lock).
+
 Per-epoch statistics (everything on the ``time`` dimension) are block means
 over ``tracking.stats_resolution_s`` (10 ms: at the 10-ms scenarios one epoch,
 so nothing changes there; 10 epochs at 1 ms, which keeps a 1-ms result small).
@@ -46,6 +59,7 @@ an attribute, so the content hash of the results does not depend on them).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -68,6 +82,18 @@ def block_mean(a: np.ndarray, block: int) -> np.ndarray:
         return a
     nb = a.shape[-1] // block
     return a[..., : nb * block].reshape(*a.shape[:-1], nb, block).mean(axis=-1)
+
+
+def time_in_lock(y: np.ndarray, total_hat: np.ndarray, per: int, threshold: float, start: int) -> np.ndarray:
+    """Fraction of lock-detector blocks in lock from epoch ``start`` on, per trial (see the module docstring)."""
+    r = y[:, start:] * np.exp(-1j * total_hat[:, start:])
+    nb = r.shape[1] // per
+    if nb == 0:
+        return np.full(y.shape[0], np.nan)
+    s = r[:, : nb * per].reshape(r.shape[0], nb, per).sum(axis=-1)
+    i2, q2 = s.real**2, s.imag**2
+    locked = (s.real > 0) & ((i2 - q2) >= threshold * (i2 + q2))
+    return locked.mean(axis=1)
 
 
 def window_std(a: np.ndarray, per: int) -> np.ndarray:
@@ -115,12 +141,16 @@ def run_shard(
     events = np.zeros_like(slips)
     example = np.zeros((nt, n_stat))
     s4_hat = np.full((nt, n_stat), np.nan)
+    s4_med = np.full((nt, real.trials.size), np.nan)
     jit_disc = np.full((nt, real.trials.size, n_windows), np.nan)
     jit_track = np.full_like(jit_disc, np.nan)
     ex_disc = np.full((nt, n_stat), np.nan)
     ex_freq = np.full((nt, n_stat), np.nan)
     monitors = {m: np.full((nt, n_stat), np.nan) for m in MONITORS}
     ms_tot = np.zeros((nt, real.trials.size))
+    lock = np.zeros((nt, real.trials.size))
+    lock_per = max(int(round(float(tracking.get("lock_window_s", 0.2)) / ts)), 1)
+    lock_threshold = float(tracking.get("lock_threshold", 0.85))
     slips_tot = np.zeros((nt, real.trials.size), dtype=np.int64)
     events_tot = np.zeros_like(slips_tot)
     context = TrackerContext(scenario=scenario, tracking=tracking, lut=lut, ts=ts, trace_set=trace_set)
@@ -128,13 +158,17 @@ def run_shard(
         tracker = registry.build(name, tracker_specs[name], context)
         if hasattr(tracker, "ar_sets"):  # the AEKF-AR: its scintillation phase (and the adaptive S4) estimates
             tracker.record = ("theta_s", "s4_hat") if getattr(tracker, "adaptive", False) else ("theta_s",)
-        out = tracker.run(real.y, init)
+        tracker_init = init
+        if getattr(tracker, "noise_estimate", "") == "reference":
+            tracker_init = replace(init, noise_reference=real.noise_reference())
+        out = tracker.run(real.y, tracker_init)
         if "total_phase" in out.extras:
             total_hat = out.extras["total_phase"]
         elif "theta_s" in out.extras:
             total_hat = out.theta_d + out.extras["theta_s"]
         else:
             total_hat = out.theta_d
+        lock[j] = time_in_lock(real.y, total_hat, lock_per, lock_threshold, steady.start)
         et = unwrapped_error(total_hat, total_phase)
         ms_tot[j] = (wrap(et[:, steady]) ** 2).mean(axis=1)
         slips_tot[j], events_tot[j] = slip_counts(et, hyst, settle)
@@ -150,6 +184,7 @@ def run_shard(
         example[j] = block_mean(eu[0], block)
         if "s4_hat" in out.extras:
             s4_hat[j] = block_mean(out.extras["s4_hat"].mean(axis=0), block)
+            s4_med[j] = np.median(out.extras["s4_hat"][:, steady], axis=1)
         if "discriminator" in out.extras:
             disc = out.extras["discriminator"]
             jit_disc[j] = window_std(disc, per_window)
@@ -175,9 +210,11 @@ def run_shard(
             "ms_total_steady": (("tracker", "trial"), ms_tot, {"long_name": "per-trial mean square of the wrapped total-phase error over the steady-state window", "units": "rad2"}),
             "slips_total": (("tracker", "trial"), slips_tot, {"long_name": "cycles slipped by the total-phase error per trial", "units": "1"}),
             "slip_events_total": (("tracker", "trial"), events_tot, {"long_name": "slip events of the total-phase error per trial", "units": "1"}),
+            "time_in_lock": (("tracker", "trial"), lock, {"long_name": "fraction of lock-detector blocks in lock over the steady-state window", "units": "1"}),
             "s4_true": (("time",), block_mean(real.s4_t, block), {"long_name": "S4 of the CSM profile", "units": "1"}),
             "tau0_true": (("time",), block_mean(real.tau0_t, block), {"long_name": "tau0 of the CSM profile", "units": "s"}),
             "s4_hat_mean": (("tracker", "time"), s4_hat, {"long_name": "mean over trials of the on-line S4 estimate (adaptive trackers)", "units": "1"}),
+            "s4_hat_median": (("tracker", "trial"), s4_med, {"long_name": "per-trial median of the on-line S4 estimate over the steady-state window", "units": "1"}),
             "n_trials": ((), int(real.trials.size)),
         },
         coords={
@@ -207,6 +244,8 @@ def run_shard(
             "slip_settle_s": float(tracking["slip_settle_s"]),
             "stats_block_epochs": block,
             "jitter_window_s": per_window * ts,
+            "lock_window_s": lock_per * ts,
+            "lock_threshold": lock_threshold,
             "tracker_labels": tracker_labels(tracker_names, tracker_specs),
         }
     )
@@ -233,6 +272,8 @@ def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:
             "ms_total_steady": xr.concat([d["ms_total_steady"] for d in shards], dim="trial"),
             "slips_total": xr.concat([d["slips_total"] for d in shards], dim="trial"),
             "slip_events_total": xr.concat([d["slip_events_total"] for d in shards], dim="trial"),
+            "time_in_lock": xr.concat([d["time_in_lock"] for d in shards], dim="trial"),
+            "s4_hat_median": xr.concat([d["s4_hat_median"] for d in shards], dim="trial"),
             "example_error": first["example_error"],
             "example_trial": first["example_trial"],
             "s4_true": first["s4_true"],
@@ -269,6 +310,6 @@ def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:
     out["steady_rmse_total_lo"] = (("tracker",), slo, attrs)
     out["steady_rmse_total_hi"] = (("tracker",), shi, attrs)
     for key in ("sq_sum", "sq2_sum", "slips", "slip_events", "ms_steady", "example_error", "s4_true", "s4_hat_mean", "ms_total_steady", "slips_total",
-                "slip_events_total", *optional):
+                "slip_events_total", "time_in_lock", *optional):
         out[key].attrs.update(first[key].attrs)
     return out

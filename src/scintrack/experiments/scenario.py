@@ -24,6 +24,16 @@ cases) take the scintillation from a recorded trace passed as ``trace``;
 their ``ts`` and ``tracking`` overrides are applied by the caller
 (:func:`effective_tracking`, :mod:`.runner`).
 
+``csm_phase: wrapped`` (reading R2 of the Vila-Valls simulation, issue 13)
+takes theta_s as the wrapped angle of the CSM field, arg z in (-pi, pi],
+instead of its unwrapped phase.  The prompts are the same (``exp(j theta)``
+is 2 pi-periodic); only the decomposition of the truth changes.
+:meth:`Realisation.noise_reference` gives, on demand, the samples of a
+correlator that carries no signal (its own seed stream, the prompts' noise
+power), for the AEKF-AR's ``noise_estimate: reference``.
+``realisations_of: <scenario>`` draws the seed streams of that scenario, so
+a reading of the same case sees exactly the same realisations.
+
 :func:`simulate` draws, for a list of trial indices, the initial phase, the
 CSM scintillation and the thermal noise from independent seed streams named
 after the scenario, so trial k is identical whichever shard or experiment
@@ -59,10 +69,16 @@ class Realisation:
     s4_t: np.ndarray
     tau0_t: np.ndarray
     fd0_hz: float = 0.0
+    seed: int = 0
+    name: str = ""
 
     @property
     def time(self) -> np.ndarray:
         return np.arange(self.y.shape[1]) * self.ts
+
+    def noise_reference(self) -> np.ndarray:
+        """Signal-free correlator samples CN(0, noise_power), one seed stream per trial."""
+        return complex_noise(self.seed, f"scenario/{self.name}/noise_reference", self.trials, self.y.shape[1], self.noise_power)
 
 
 def segments_of(scenario: Mapping[str, Any]) -> list[Segment]:
@@ -131,6 +147,7 @@ def simulate(
 ) -> Realisation:
     n_epochs = int(round(float(scenario["duration_s"]) / ts))
     trials = np.asarray(list(trials))
+    name = str(scenario.get("realisations_of", name))  # the seed streams (another scenario's realisations)
     amp = float(tracking["amplitude"])
     cn0 = float(scenario.get("cn0_dbhz", tracking["cn0_dbhz"]))
     fd0, fr = scenario_dynamics(scenario, tracking)
@@ -170,7 +187,10 @@ def simulate(
     else:
         real, s4_t, tau0_t = generate_csm_profile(seed=seed, name=f"scenario/{name}/csm", trials=trials, n_epochs=n_epochs, ts=ts, segments=segs, nspa=nspa, warmup=warmup)
         rho, theta_s = real.rho, real.theta
+    if scenario.get("csm_phase", "unwrapped") == "wrapped":
+        theta_s = np.angle(np.exp(1j * theta_s))
     s2 = noise_power(cn0, ts, amp)
     noise = complex_noise(seed, f"scenario/{name}/noise", trials, n_epochs, s2)
     y = prompts(theta_d + theta_s, rho, noise, amp)
-    return Realisation(trials=trials, ts=ts, theta_d=theta_d, theta_s=theta_s, rho_s=rho, y=y, noise_power=s2, s4_t=s4_t, tau0_t=tau0_t, fd0_hz=fd0)
+    return Realisation(trials=trials, ts=ts, theta_d=theta_d, theta_s=theta_s, rho_s=rho, y=y, noise_power=s2, s4_t=s4_t, tau0_t=tau0_t, fd0_hz=fd0,
+                       seed=int(seed), name=name)

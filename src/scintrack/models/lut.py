@@ -33,9 +33,12 @@ CRITERIA = ("pacf", "aic", "bic")
 
 
 def fit_training_set(
-    train: xr.Dataset, max_order: int, pacf_lags: int, alpha: float, pacf_lengths_s: Sequence[float] = ()
+    train: xr.Dataset, max_order: int, pacf_lags: int, alpha: float, pacf_lengths_s: Sequence[float] = (), wrap_phase: bool = False
 ) -> xr.Dataset:
     """Per-trial AR fits of one training dataset with dims (tau0, trial, time).
+
+    ``wrap_phase``: fit the phase models on the wrapped phase ``angle(exp(j theta))``
+    instead of the stored unwrapped one (reading R5 of the Vila-Valls simulation).
 
     ``pacf_lengths_s`` adds the PACF-rule order measured on the first
     ``L`` seconds of each series (the 95% band widens as 1/sqrt(N)), to show
@@ -57,6 +60,8 @@ def fit_training_set(
         for j in range(n_r):
             for c, comp in enumerate(COMPONENTS):
                 x = np.asarray(train[comp].values[i, j], dtype=float)
+                if wrap_phase and comp == "phase":
+                    x = np.angle(np.exp(1j * x))
                 trend = TRENDS[comp]
                 fits = fit_orders(x, max_order, trend)
                 for o, fit in enumerate(fits, start=1):

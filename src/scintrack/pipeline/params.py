@@ -26,6 +26,7 @@ from . import paths
 # tracking settings that define the scenario (truth, observations) and the metrics
 SCENARIO_TRACKING_KEYS = (
     "cn0_dbhz", "amplitude", "fd0_hz", "fr_hz_s", "steady_state_start_s", "slip_hysteresis_rad", "slip_settle_s", "stats_resolution_s", "jitter_window_s",
+    "lock_window_s", "lock_threshold",
 )
 
 
@@ -52,12 +53,19 @@ def training(config: Mapping[str, Any], s4: float | str) -> dict[str, Any]:
     return csm_training_params(config, float(s4))
 
 
-def ar_fit(config: Mapping[str, Any], s4: float | str) -> dict[str, Any]:
-    return {"ar_models": dict(config["ar_models"]), "training": training(config, s4)}
+def ar_fit(config: Mapping[str, Any], s4: float | str, phase: str = "unwrapped") -> dict[str, Any]:
+    """AR fits of one training set; ``phase: wrapped`` fits the phase models on the wrapped phase (reading R5)."""
+    out = {"ar_models": dict(config["ar_models"]), "training": training(config, s4)}
+    if phase != "unwrapped":
+        out["phase"] = phase
+    return out
 
 
-def ar_lut(config: Mapping[str, Any]) -> dict[str, Any]:
-    return {"ar_models": dict(config["ar_models"]), "training": [training(config, s4) for s4 in config["ar_training"]["s4"]]}
+def ar_lut(config: Mapping[str, Any], phase: str = "unwrapped") -> dict[str, Any]:
+    out = {"ar_models": dict(config["ar_models"]), "training": [training(config, s4) for s4 in config["ar_training"]["s4"]]}
+    if phase != "unwrapped":
+        out["phase"] = phase
+    return out
 
 
 def ar_diagnostics(config: Mapping[str, Any]) -> dict[str, Any]:
@@ -89,7 +97,7 @@ def experiment(config: Mapping[str, Any], name: str, scenario: str) -> dict[str,
         **_sampling(config),
         "n_trials": int(spec["trials"]),
         "shards": int(spec["shards"]),
-        "lut": ar_lut(config),
+        "lut": ar_lut(config, spec.get("lut", "unwrapped")),
     }
     if "ts" in sc:
         out["ts"] = float(sc["ts"])
@@ -129,6 +137,19 @@ def susi_scenarios(config: Mapping[str, Any]) -> list[str]:
     """The trace scenarios of the experiments (Susi 2014's), in config order."""
     used = {sc for exp in config["experiments"].values() for sc in exp["scenarios"]}
     return [name for name, sc in config["scenarios"].items() if "trace" in sc and name in used]
+
+
+def floors(config: Mapping[str, Any], scenario: str) -> dict[str, Any]:
+    """The achievability floors of one Table III cell: its (S4, tau0), the tracking values the
+    filters use, the AR look-up table and the Monte Carlo settings."""
+    sc = config["scenarios"][scenario]
+    (seg,) = sc["segments"]
+    keys = ("cn0_dbhz", "amplitude", "q_jerk_hz2_s3", "p0_diag", "theta_s_p0", "rho_p0", "steady_state_start_s")
+    return {
+        "scenario": scenario, "s4": float(seg["s4"]), "tau0": float(seg["tau0"]),
+        "tracking": {k: config["tracking"][k] for k in keys}, "seed": int(config["seed"]), **_sampling(config),
+        "floors": {k: v for k, v in config["floors"].items() if k != "scenarios"}, "lut": ar_lut(config),
+    }
 
 
 def shard_trials(config: Mapping[str, Any], name: str, shard: int) -> list[int]:
@@ -228,6 +249,8 @@ def zhao_receiver(config: Mapping[str, Any]) -> dict[str, Any]:
 def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     """Every result file of the default run -> the params it depends on."""
     out: dict[str, dict[str, Any]] = {paths.AR_LUT: ar_lut(config), paths.VV_DIAGNOSTICS: ar_diagnostics(config)}
+    if any(spec.get("lut") == "wrapped" for spec in config["experiments"].values()):
+        out[paths.AR_LUT_WRAPPED] = ar_lut(config, "wrapped")
     for name, spec in config["experiments"].items():
         for scenario in spec["scenarios"]:
             out[paths.exp_result(name, scenario)] = experiment(config, name, scenario)
@@ -236,6 +259,8 @@ def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
         out[paths.trace_models_path(config, event)] = trace_models(config, event)
         out[paths.trace_static_path(config, event)] = trace_static(config, event)
         out[paths.trace_dynamics_path(config, event)] = trace_dynamics(config, event)
+    for scenario in config["floors"]["scenarios"]:
+        out[paths.floors_path(scenario)] = floors(config, scenario)
     for scenario in susi_scenarios(config):
         out[paths.susi_indices_path(scenario)] = susi_indices(config, scenario)
     out[paths.ZHAO_CN0] = zhao_cn0(config)

@@ -13,7 +13,13 @@ from pathlib import Path
 from typing import Any
 
 AR_LUT = "results/ar_models/ar_lut.nc"
+AR_LUT_WRAPPED = "results/ar_models/wrapped/ar_lut.nc"  # phase AR models fitted on the wrapped phase (reading R5)
 VV_DIAGNOSTICS = "results/vila_valls_2018/ar_diagnostics.nc"
+
+
+def floors_path(scenario: str) -> str:
+    """The achievability floors of one Table III cell (issue 13; ``scenario`` may be a wildcard)."""
+    return f"results/vila_valls_2018/floors/{scenario}.nc"
 DATASET_MANIFEST = "data/manifest.json"
 
 
@@ -29,8 +35,12 @@ def training_path(config: Mapping[str, Any], s4: float | str) -> str:
     return f"data/synthetic/{csm_training_name(float(s4))}/{csm_training_version(params)}.nc"
 
 
-def ar_fit_path(s4: float | str) -> str:
-    return f"results/ar_models/fits/s4-{fmt(s4)}.nc"
+def ar_fit_path(s4: float | str, phase: str = "unwrapped") -> str:
+    return f"results/ar_models/{'' if phase == 'unwrapped' else phase + '/'}fits/s4-{fmt(s4)}.nc"
+
+
+def lut_path(phase: str = "unwrapped") -> str:
+    return AR_LUT if phase == "unwrapped" else AR_LUT_WRAPPED
 
 
 def exp_result(experiment: str, scenario: str) -> str:

@@ -28,6 +28,19 @@ a negative ``rho_s,k`` after the update is mapped back: every amplitude lag
 changes sign, every theta_s lag gains pi, and ``P -> J P J`` with ``J`` the
 matching sign matrix.  The I/Q prediction is unchanged by the fold.
 
+Receiver fixes (options, off by default; not in the paper; issue 13 ablation):
+
+* ``noise_estimate: reference``: the noise power of the on-line S4 correction
+  (Sec. V-B) comes from a correlator that carries no signal (a far code
+  offset, as receivers have), the mean of ``|n_ref|^2`` over the noise
+  window, instead of the M2M4 split of the prompts, which is biased high
+  under fading (the M2M4 assumes a constant amplitude in its window).  R of
+  the update keeps the M2M4 value.  The reference samples come with
+  :class:`~.base.TrackInit` (``noise_reference``).
+* ``amplitude_floor: r``: a constrained update that keeps the amplitude
+  positive by projection, ``rho_s,k <- max(rho_s,k, r)`` after each update
+  (no pi jump of theta_s, unlike ``fold_mirror``).
+
 ``static: true`` (Sec. VI-E2) fixes the dynamics block at zero (known, no
 process noise): the dynamics-free scintillation tracking of the traces.
 
@@ -48,6 +61,7 @@ from numba import njit
 
 from ..estimators.cn0 import M2M4_FLOOR, M2M4_MIN_EPOCHS, StreamingM2M4
 from ..estimators.s4 import StreamingS4
+from ..estimators.window import SlidingSums
 from ..models.ar import ScintillationAR
 from ..models.lut import scintillation_ar
 from . import blocks
@@ -96,6 +110,9 @@ class AekfParams(NamedTuple):
     nz_vals: np.ndarray
     nz_count: np.ndarray
     fold_mirror: bool
+    ref_noise: bool  # S4 noise power from the reference (signal-free) correlator
+    nref: np.ndarray  # (trials, epochs) reference correlator samples, or (0, 0)
+    rho_floor: float  # amplitude floor of the constrained update (<= 0: off)
 
 
 @njit(cache=True)
@@ -118,6 +135,8 @@ def aekf_kernel(y, prm):
     nb4 = np.zeros(prm.noise_window)
     sb1 = np.zeros(prm.s4_window)
     sb2 = np.zeros(prm.s4_window)
+    rb1 = np.zeros(prm.noise_window)
+    rb2 = np.zeros(prm.noise_window)
     x = np.empty(n)
     xp = np.empty(n)
     P = np.empty((n, n))
@@ -141,6 +160,12 @@ def aekf_kernel(y, prm):
         ss2 = 0.0
         scount = 0
         spos = 0
+        rb1[:] = 0.0
+        rb2[:] = 0.0
+        rs1 = 0.0
+        rs2 = 0.0
+        rcount = 0
+        rpos = 0
         idx = prm.initial_set
         candidate = prm.initial_set
         held = 0
@@ -159,13 +184,20 @@ def aekf_kernel(y, prm):
             blocks.iq_update(x, P, ph0, ph1, prm.A, ir, 0.5 * s2, yr, yi)
             if prm.fold_mirror and x[ir] < 0.0:
                 blocks.fold_mirror(x, P, ir)
+            if prm.rho_floor > 0.0 and x[ir] < prm.rho_floor:
+                x[ir] = prm.rho_floor
             if i % 64 == 63:
                 blocks.symmetrise(P)
             if prm.adaptive:
                 spos, ss1, ss2, scount = blocks.window_push(sb1, sb2, spos, ss1, ss2, scount, p2, p2 * p2)
+                s2_s4 = s2
+                if prm.ref_noise:
+                    r2 = prm.nref[t, i].real ** 2 + prm.nref[t, i].imag ** 2
+                    rpos, rs1, rs2, rcount = blocks.window_push(rb1, rb2, rpos, rs1, rs2, rcount, r2, r2 * r2)
+                    s2_s4 = rs1 / rcount
                 if scount >= prm.s4_min_epochs:
                     mean, var = blocks.window_mean_var(ss1, ss2, scount)
-                    s4_hat = blocks.s4_corrected(mean, var, s2)
+                    s4_hat = blocks.s4_corrected(mean, var, s2_s4)
                 best = blocks.nearest_index(s4_hat, prm.s4_points)
                 held = held + 1 if best == candidate else 0
                 candidate = best
@@ -200,6 +232,8 @@ class AEKFAR:
     theta_s_p0: float = 0.01
     rho_p0: float = 0.05
     fold_mirror: bool = False
+    noise_estimate: str = "m2m4"
+    amplitude_floor: float = 0.0
     record: tuple[str, ...] = field(default_factory=tuple)
 
     SPEC_OVERRIDES = {"q_jerk_hz2_s3": "q_jerk_hz2_s3"}
@@ -212,6 +246,8 @@ class AEKFAR:
         "q_jerk_hz2_s3": Q_JERK_SCHEMA,
         "static": {"type": "boolean", "description": "dynamics known to be zero (Sec. VI-E2)"},
         "fold_mirror": {"type": "boolean", "description": "map a negative rho_s back to the positive solution (isolating option)"},
+        "noise_estimate": {"enum": ["m2m4", "reference"], "description": "noise power of the on-line S4: M2M4 of the prompts (paper) or a signal-free reference correlator"},
+        "amplitude_floor": {"type": "number", "minimum": 0, "maximum": 1, "description": "constrained update rho_s >= this (0: off)"},
     }
 
     def __post_init__(self):
@@ -244,12 +280,17 @@ class AEKFAR:
             initial_set=0, amplitude=amp, nominal_noise=amp**2 / (context.cn0_hz * context.ts),
             noise_window=int(tr["noise_window"]), s4_window=int(tr["s4_window"]), s4_min_epochs=int(tr["s4_min_epochs"]),
             adapt_hold=int(tr["adapt_hold"]), theta_s_p0=float(tr["theta_s_p0"]), rho_p0=float(tr["rho_p0"]),
-            fold_mirror=bool(spec.get("fold_mirror", False)),
+            fold_mirror=bool(spec.get("fold_mirror", False)), noise_estimate=str(spec.get("noise_estimate", "m2m4")),
+            amplitude_floor=float(spec.get("amplitude_floor", 0.0)),
         )
 
     @staticmethod
     def label(name: str, spec: Mapping[str, Any]) -> str:
         suffix = ", mirror folded" if spec.get("fold_mirror") else ""
+        if spec.get("noise_estimate") == "reference":
+            suffix += ", reference-noise S4"
+        if spec.get("amplitude_floor"):
+            suffix += f", rho >= {float(spec['amplitude_floor']):g}"
         s4 = explicit_design_s4(spec)
         if s4 is not None:
             return compose("AEKF-AR", q_qualifier(spec), f", AR fit at S4 = {s4:g}{suffix}")
@@ -299,6 +340,13 @@ class AEKFAR:
         p0[3 + p :] = self.rho_p0
         return x, p0
 
+    def _noise_reference(self, init: TrackInit) -> np.ndarray:
+        if self.noise_estimate != "reference":
+            return np.zeros((0, 0), dtype=complex)
+        if init.noise_reference is None:
+            raise ValueError("noise_estimate: reference needs the reference-correlator samples (TrackInit.noise_reference)")
+        return np.ascontiguousarray(init.noise_reference, dtype=complex)
+
     def params(self, init: TrackInit) -> AekfParams:
         F_tab, Q_tab, kap_tab = self.tables()
         x, p0 = self._initial(init)
@@ -306,6 +354,7 @@ class AEKFAR:
             x, p0, F_tab, Q_tab, kap_tab, np.array([s.s4 for s in self.ar_sets], dtype=float), bool(self.adaptive), int(self.initial_set),
             float(self.amplitude), float(self.nominal_noise), int(self.noise_window), int(self.s4_window), int(self.s4_min_epochs),
             int(self.adapt_hold), 3 + self.p_state, bool(self.record), M2M4_FLOOR, *blocks.nonzeros(F_tab), bool(self.fold_mirror),
+            self.noise_estimate == "reference", self._noise_reference(init), float(self.amplitude_floor),
         )
 
     # --- filters ---------------------------------------------------------------------
@@ -343,6 +392,8 @@ class AEKFAR:
         out = np.empty((n_tr, k))
         rec = {name: np.empty((n_tr, k)) for name in self.record}
         s4_hat = np.full(n_tr, self.ar_sets[self.initial_set].s4)
+        nref = self._noise_reference(init)
+        ref_power = SlidingSums(n_tr, 1, self.noise_window) if nref.size else None
         for i in range(k):
             if i > 0:
                 Fi = F_tab[idx]
@@ -372,10 +423,16 @@ class AEKFAR:
                     x[neg, 3:ir] += np.pi
                     x[neg] = x[neg] * sign
                     P[neg] = P[neg] * sign[None, :, None] * sign[None, None, :]
+            if self.amplitude_floor > 0.0:
+                x[:, ir] = np.maximum(x[:, ir], self.amplitude_floor)
             if i % 64 == 63:
                 P = 0.5 * (P + P.transpose(0, 2, 1))
             if s4 is not None:
-                s4_hat = s4.update(yi, s2)
+                s2_s4 = s2
+                if ref_power is not None:
+                    sums, count = ref_power.push((np.abs(nref[:, i]) ** 2)[:, None])
+                    s2_s4 = sums[:, 0] / count
+                s4_hat = s4.update(yi, s2_s4)
                 nearest = np.argmin(np.abs(s4_hat[:, None] - s4_points[None, :]), axis=1)
                 held = np.where(nearest == candidate, held + 1, 0)
                 candidate = nearest

@@ -35,12 +35,17 @@ class TrackInit:
     observation, shape (epochs,) or (trials, epochs); None means a pilot
     signal (d = +1 known).  Read by the multiple-model tracker
     (:mod:`.mm_kf`); the other trackers ignore it.
+
+    ``noise_reference`` (optional): samples of a correlator that carries no
+    signal (same noise power as the prompts, independent noise), shape
+    (trials, epochs); read by the AEKF-AR with ``noise_estimate: reference``.
     """
 
     phase: np.ndarray
     doppler_hz: np.ndarray
     rate_hz_s: np.ndarray
     bit_prior: np.ndarray | None = None
+    noise_reference: np.ndarray | None = None
 
 
 @dataclass
