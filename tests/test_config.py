@@ -101,3 +101,24 @@ def test_snakemake_stops_on_bad_value_with_one_line(tmp_path):
     lines = [line for line in out.splitlines() if "invalid config value at 'ar_training.s4[0]'" in line]
     assert len(lines) == 1, out[-2000:]
     assert not (tmp_path / "data").exists()
+
+
+@pytest.mark.parametrize(
+    "edit, key",
+    [
+        (lambda c: c["scenarios"]["susi_high_latitude"]["trace"].update(name="nowhere"), "scenarios.susi_high_latitude.trace.name"),
+        (lambda c: c["scenarios"]["susi_equatorial"].update(ts=0.002), "scenarios.susi_equatorial.ts"),
+        (lambda c: c["scenarios"]["susi_equatorial"].update(duration_s=400.0), "susi_2014.traces.equatorial.duration_s"),
+        (lambda c: c["floors"].update(scenarios=["severe_to_moderate"]), "floors.scenarios"),
+    ],
+)
+def test_trace_scenarios_and_floors_are_checked(config, edit, key):
+    import copy
+
+    from scintrack.config import ConfigError, check_consistency
+
+    cfg = copy.deepcopy(config)
+    edit(cfg)
+    with pytest.raises(ConfigError, match=key.replace(".", r"\.")) as info:
+        check_consistency(cfg)
+    assert "\n" not in str(info.value)

@@ -131,6 +131,7 @@ def check_consistency(config: Mapping[str, Any], source: str = "config/config.ya
         )
     _check_experiments(config, source)
     _check_real_traces(config, source)
+    _check_trace_scenarios(config, source)
     for name in config["floors"]["scenarios"]:
         sc = config["scenarios"].get(name)
         if sc is None or len(sc["segments"]) != 1:
@@ -141,6 +142,29 @@ def check_consistency(config: Mapping[str, Any], source: str = "config/config.ya
             f"invalid config value at 'ar_training.duration_s': {n_epochs:.0f} epochs are too few to fit "
             f"AR({max_order}) and a {config['ar_models']['pacf_lags']}-lag PACF; lengthen it in {source}"
         )
+
+
+def _check_trace_scenarios(config: Mapping[str, Any], source: str) -> None:
+    """A trace scenario (Susi 2014) names an existing susi_2014.traces entry at its own Ts, long enough for fit_s + duration_s."""
+    traces = config["susi_2014"]["traces"]
+    for name, sc in config["scenarios"].items():
+        if sc.get("scintillation_model") == "trace" and "trace" not in sc:
+            raise ConfigError(f"invalid config value at 'scenarios.{name}': scintillation_model trace needs trace: {{name, fit_s}}; add it in {source}")
+        if "trace" not in sc:
+            continue
+        tr = sc["trace"]
+        if tr["name"] not in traces:
+            raise ConfigError(f"invalid config value at 'scenarios.{name}.trace.name': {tr['name']!r} is not under susi_2014.traces "
+                              f"(known: {', '.join(traces)}); fix it in {source}")
+        spec = traces[tr["name"]]
+        ts = float(sc.get("ts", config["sampling"]["ts"]))
+        if abs(float(spec["ts"]) - ts) > 1e-12:
+            raise ConfigError(f"invalid config value at 'scenarios.{name}.ts': {ts:g} s differs from susi_2014.traces.{tr['name']}.ts = "
+                              f"{float(spec['ts']):g} s; make them equal in {source}")
+        need = float(tr["fit_s"]) + float(sc["duration_s"])
+        if float(spec["duration_s"]) + 1e-9 < need:
+            raise ConfigError(f"invalid config value at 'susi_2014.traces.{tr['name']}.duration_s': {float(spec['duration_s']):g} s is shorter than "
+                              f"scenarios.{name}.trace.fit_s + duration_s = {need:g} s; lengthen it in {source}")
 
 
 def _check_experiments(config: Mapping[str, Any], source: str) -> None:
