@@ -198,6 +198,13 @@ def test_compiled_kernels_match_textbook_references():
                record=("s4_hat", "ar_set", "theta_s", "rho_s")),
         AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=sets[1:2], nominal_noise=0.2, fold_mirror=True, record=("rho_s", "theta_s")),
         AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=sets[2:], p_state=1, q_state=3, nominal_noise=0.2, record=("rho_s",)),
+        # the structured predict / lane kernel on other state orders (a set of each order), static (q = 0, P0_d = 0), nothing recorded
+        AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=[ScintillationAR.from_coefs([1.9, -0.91], [0.98], 0.02, 4e-4, 1e-4)],
+               p_state=2, q_state=1, nominal_noise=0.2, record=("rho_s", "theta_s")),
+        AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=[ScintillationAR.no_scintillation(), ScintillationAR.from_coefs([0.99], [1.7, -0.72], 0.02, 4e-4, 1e-4, s4=0.5)],
+               p_state=3, q_state=2, adaptive=True, nominal_noise=0.2, s4_window=300, s4_min_epochs=100, adapt_hold=50, fold_mirror=True, amplitude_floor=0.02,
+               record=("ar_set", "s4_hat")),
+        AEKFAR(ts=TS, q_jerk=0.0, p0_diag=(0.0, 0.0, 0.0), ar_sets=sets[1:2], nominal_noise=0.2),
     ]
     tol = {"frequency_hz": dict(rtol=1e-10, atol=1e-9), "discriminator": dict(rtol=0, atol=1e-7), "total_phase": dict(rtol=1e-10, atol=1e-9), "s4_hat": dict(rtol=1e-6, atol=1e-7), "ar_set": dict(rtol=0, atol=0), "R": dict(rtol=1e-10, atol=0), "theta_s": dict(rtol=0, atol=1e-8), "rho_s": dict(rtol=0, atol=1e-8)}
     for tr in trackers:
@@ -206,8 +213,9 @@ def test_compiled_kernels_match_textbook_references():
         assert set(fast.extras) == set(ref.extras)
         for key in fast.extras:
             np.testing.assert_allclose(fast.extras[key], ref.extras[key], err_msg=f"{type(tr).__name__} {key}", **tol[key])
-    switched = trackers[5].run(y, init).extras["ar_set"]
-    assert len(np.unique(switched)) > 1  # the adaptive filter did switch sets
+    for j in (5, 9):
+        switched = trackers[j].run(y, init).extras["ar_set"]
+        assert len(np.unique(switched)) > 1  # the adaptive filter did switch sets
     e = unwrapped_error(trackers[0].run(y, init).theta_d, thd)
     np.testing.assert_array_equal(count_cycle_slips(e), count_cycle_slips_numpy(e))
 
@@ -292,3 +300,117 @@ def test_costas_discriminator_ignores_the_data_bit_and_the_pll_tracks_through_bi
     err = np.angle(np.exp(2j * (costas.theta_d - theta))) / 2  # modulo pi
     assert np.sqrt(np.mean(err[:, 500:] ** 2)) < 0.1
     assert np.allclose(costas.extras["frequency_hz"][:, 500:].mean(), 3.0, atol=0.2)
+
+
+def _aekf_batch(n, k, seed=3):
+    rng = np.random.default_rng(seed)
+    thd = third_order_phase(rng.uniform(-np.pi, np.pi, n), k, TS, 50.0, 100.0)
+    rho = np.abs(1 + 0.6 * np.sin(np.arange(k) / 20.0 + rng.uniform(0, 6, (n, 1))))
+    y = prompts(thd + np.cumsum(rng.normal(0, 0.03, (n, k)), axis=1), rho, complex_noise(seed, "lanes", range(n), k, noise_power(27.0, TS)))
+    return y, TrackInit(phase=np.angle(y[:, 0]), doppler_hz=np.full(n, 50.0), rate_hz_s=np.zeros(n))
+
+
+def test_aekf_lanes_give_each_trial_the_bits_it_has_alone():
+    """The kernel runs blocks.LANES trials side by side (the last block padded): every trial's output is,
+    bit for bit, the one of a run on that trial alone, wherever it sits in the batch."""
+    from scintrack.trackers import blocks
+
+    n = blocks.LANES + 5
+    y, init = _aekf_batch(n, 700)
+    sets = [ScintillationAR.no_scintillation(), ScintillationAR.from_coefs([0.99], [1.8, -0.9, 0.05], 0.05, 4e-4, 1e-4, s4=0.6)]
+    tr = AEKFAR(ts=TS, q_jerk=0.01, p0_diag=(0.25, 1.0, 1e4), ar_sets=sets, adaptive=True, nominal_noise=0.2, s4_window=200, s4_min_epochs=50,
+                adapt_hold=20, fold_mirror=True, record=("theta_s", "rho_s", "s4_hat", "ar_set"))
+    batch = tr.run(y, init)
+    for t in (0, blocks.LANES - 1, blocks.LANES, n - 1):
+        alone = tr.run(y[t : t + 1], TrackInit(init.phase[t : t + 1], init.doppler_hz[t : t + 1], init.rate_hz_s[t : t + 1]))
+        assert np.array_equal(batch.theta_d[t], alone.theta_d[0])
+        for key in tr.record:
+            assert np.array_equal(batch.extras[key][t], alone.extras[key][0]), key
+
+
+def test_lane_blocks_are_the_scalar_blocks_bit_for_bit():
+    """The Lanes forms (blocks.ar_predict, window_push_lanes, nearest_index_lanes, and m2m4_split /
+    window_mean_var / s4_corrected compiled for Lanes) give on every lane the bits of the scalar block."""
+    from numba import njit
+
+    from scintrack.trackers import blocks
+    from scintrack.trackers.blocks import LANES as L
+    from scintrack.trackers.blocks import lane_load, lane_store
+
+    rng = np.random.default_rng(11)
+    # formulas: edge values (zeros, negatives, tiny and large) on every lane
+    m = 64
+    a = rng.normal(size=(m, L)) * rng.choice([1e-300, 1e-3, 1.0, 1e3], (m, L))
+    b, c = rng.normal(size=(m, L)), rng.normal(size=(m, L))
+    a[:4], b[4:8], c[8:12] = 0.0, -0.0, 0.0
+
+    @njit
+    def lane_forms(a, b, c, out, pts):
+        for i in range(a.shape[0]):
+            x, yv, z = lane_load(a, i * L), lane_load(b, i * L), lane_load(c, i * L)
+            mean, var = blocks.window_mean_var(x, yv, 37)
+            sig, noi = blocks.m2m4_split(x, yv, 1e-3)
+            for j, v in enumerate((mean, var, blocks.s4_corrected(x, yv, z), sig, noi, blocks.nearest_index_lanes(z, pts))):
+                lane_store(out, (j * a.shape[0] + i) * L, v)
+
+    @njit
+    def scalar_forms(a, b, c, out, pts):
+        for i in range(a.shape[0]):
+            for ln in range(L):
+                x, yv, z = a[i, ln], b[i, ln], c[i, ln]
+                out[0, i, ln], out[1, i, ln] = blocks.window_mean_var(x, yv, 37)
+                out[2, i, ln] = blocks.s4_corrected(x, yv, z)
+                out[3, i, ln], out[4, i, ln] = blocks.m2m4_split(x, yv, 1e-3)
+                out[5, i, ln] = blocks.nearest_index(z, pts)
+
+    pts = np.array([0.0, 0.5, -0.5, 0.5, 1.0])  # a tie: the first index wins
+    o1, o2 = np.empty((6, m, L)), np.empty((6, m, L))
+    lane_forms(a, b, c, o1, pts)
+    scalar_forms(a, b, c, o2, pts)
+    assert np.array_equal(o1.view(np.uint64), o2.view(np.uint64))
+
+    # ring buffers: window_push_lanes against window_push per lane, over two laps (the exact re-sum)
+    w = 7
+    b1, b2, s1, s2 = blocks.lanes_empty((w, L)), blocks.lanes_empty((w, L)), np.zeros(L), np.zeros(L)
+    b1[:], b2[:] = 0.0, 0.0
+    ref = [(np.zeros(w), np.zeros(w), 0.0, 0.0) for _ in range(L)]
+    pos = count = 0
+    for _ in range(2 * w + 3):
+        v = rng.exponential(size=L)
+        v1, v2 = np.ascontiguousarray(v), np.ascontiguousarray(v * v)
+        new_pos, new_count = blocks.window_push_lanes(b1, b2, pos, s1, s2, count, v1, v2)
+        for ln in range(L):
+            rb1, rb2, r1, r2 = ref[ln]
+            p_, r1, r2, c_ = blocks.window_push(rb1, rb2, pos, r1, r2, count, v1[ln], v2[ln])
+            ref[ln] = (rb1, rb2, r1, r2)
+            assert (p_, c_) == (new_pos, new_count)
+        pos, count = new_pos, new_count
+        assert np.array_equal(s1, [r[2] for r in ref]) and np.array_equal(s2, [r[3] for r in ref])
+
+    # structured predict against the general one (blocks.predict over the non-zeros of F), every state order
+    for p, q in ((1, 1), (2, 3), (3, 3), (3, 1)):
+        n = 3 + p + q
+        sets = [ScintillationAR.from_coefs(rng.normal(0, 0.5, p), rng.normal(0, 0.5, q), 0.03, 1e-4, 2e-4), ScintillationAR.no_scintillation()]
+        tr = AEKFAR(ts=TS, q_jerk=0.3, p0_diag=(1.0, 1.0, 1.0), ar_sets=sets, p_state=p, q_state=q)
+        F, Q, kap = tr.tables()
+        co_tab = blocks.ar_coefficients(F, Q, kap, p, q)
+        setof = rng.integers(0, len(sets), L)
+        co = blocks.lanes_empty((co_tab.shape[1], L))
+        co[:] = co_tab[setof].T
+        A = rng.normal(size=(L, n, n))
+        P0 = np.einsum("lij,lkj->lik", A, A)
+        x, P = blocks.lanes_empty((n, L)), blocks.lanes_empty((n, n, L))
+        x[:], P[:] = rng.normal(size=(L, n)).T, P0.transpose(1, 2, 0)
+        xn, Pn, G = blocks.lanes_empty((n, L)), blocks.lanes_empty((n, n, L)), blocks.lanes_empty((4, n, L))
+        blocks.ar_predict(x, P, xn, Pn, G, co, p, q)
+        rows, cols, vals, nnz = blocks.nonzeros(F)
+        for ln in range(L):
+            j = setof[ln]
+            xs, Ps = x[:, ln].copy(), P0[ln].copy()
+            blocks.predict(xs, Ps, np.empty(n), np.empty((n, n)), Q[j], kap[j], rows[j], cols[j], vals[j], nnz[j], True)
+            assert np.array_equal(xn[:, ln].view(np.uint64), xs.view(np.uint64))  # x bit for bit, signs of zeros included
+            assert np.array_equal(Pn[:, :, ln], Ps)  # P equal (an exact zero may differ in sign)
+    with pytest.raises(ValueError, match="form"):
+        bad = F.copy()
+        bad[0, 3, 0] = 0.1
+        blocks.ar_coefficients(bad, Q, kap, p, q)

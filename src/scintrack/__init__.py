@@ -7,3 +7,7 @@ Everything is importable and testable without Snakemake.
 """
 
 __version__ = "0.1.0"
+
+from . import numba_cache as _numba_cache
+
+_numba_cache.configure()  # before any submodule imports numba: kernels follow every edit of the package

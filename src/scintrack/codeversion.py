@@ -23,12 +23,26 @@ reaches the registry holds the whole package.
 The dump depends on the Python version's AST, so a different interpreter
 gives different versions (reruns, never stale results); the locked
 environment fixes the interpreter.
+
+Speed (issue 14: every rule's ``code`` param is computed when Snakemake
+builds the DAG): what a file contributes, the SHA-256 of its normalised
+source and the modules it imports, is kept in a small JSON cache keyed by
+the SHA-256 of the file's *bytes* (and the interpreter version), in
+``.snakemake/scintrack-code-cache.json`` of the working directory when that
+folder exists (``$SCINTRACK_CODE_CACHE`` names another file; empty: no disk
+cache).  A changed file has other bytes, so a cache entry can never be stale;
+a hit skips parsing.  The cache is written atomically (temporary file, then
+rename), so concurrent jobs cannot corrupt it.
 """
 
 from __future__ import annotations
 
 import ast
 import hashlib
+import json
+import os
+import sys
+import tempfile
 from collections.abc import Iterable
 from functools import cache
 from pathlib import Path
@@ -39,6 +53,7 @@ DISCOVERS = {"scintrack.trackers.registry": "scintrack.trackers"}
 ROOT = Path(__file__).resolve().parent
 
 
+@cache
 def module_file(name: str) -> Path | None:
     """Source file of a ``scintrack`` module or package name (None if there is none)."""
     if name != PACKAGE and not name.startswith(PACKAGE + "."):
@@ -89,12 +104,94 @@ def clear_caches() -> None:
     """Forget parsed sources (for a process that edits them, e.g. a test)."""
     _parse.cache_clear()
     normalised_source.cache_clear()
-    _imports.cache_clear()
+    _facts_cached.cache_clear()
+    module_file.cache_clear()
+
+
+def clear_disk_cache_memory() -> None:
+    """Forget the in-memory copy of the disk cache (it is read again on next use)."""
+    _DISK.clear()
+    _DISK_STATE.clear()
+
+
+_DISK: dict[str, dict] = {}
+_DISK_STATE: dict[str, object] = {}
+_TAG = f"py{sys.version_info[0]}.{sys.version_info[1]}"
+
+
+def _cache_file() -> Path | None:
+    env = os.environ.get("SCINTRACK_CODE_CACHE")
+    if env is not None:
+        return Path(env) if env else None
+    folder = Path.cwd() / ".snakemake"
+    return folder / "scintrack-code-cache.json" if folder.is_dir() else None
+
+
+def _disk() -> dict[str, dict]:
+    if "loaded" not in _DISK_STATE:
+        _DISK_STATE["loaded"] = True
+        _DISK_STATE["dirty"] = False
+        path = _cache_file()
+        _DISK_STATE["path"] = path
+        if path is not None and path.is_file():
+            try:
+                data = json.loads(path.read_text(encoding="utf-8"))
+                if isinstance(data, dict):
+                    _DISK.update({k: v for k, v in data.items() if isinstance(v, dict)})
+            except (OSError, ValueError):
+                pass  # an unreadable cache is only a miss
+    return _DISK
+
+
+def _save_disk() -> None:
+    path = _DISK_STATE.get("path")
+    if not _DISK_STATE.get("dirty") or path is None:
+        return
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".code-cache-", suffix=".tmp")
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump(_DISK, fh, sort_keys=True)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # a normal file mode (mkstemp gives 0600)
+        os.replace(tmp, path)
+        _DISK_STATE["dirty"] = False
+    except OSError:
+        pass  # no cache written: the next run parses again
+
+
+def _facts(path: Path, own_name: str | None) -> dict:
+    """``{"digest": sha256 of the normalised source, "imports": [...]}`` of a file, via the disk cache."""
+    raw = Path(path).read_bytes()
+    key = f"{_TAG}:{own_name or ''}:{hashlib.sha256(raw).hexdigest()}"
+    disk = _disk()
+    hit = disk.get(key)
+    if hit is not None and isinstance(hit.get("digest"), str) and isinstance(hit.get("imports"), list):
+        return hit
+    facts = {"digest": hashlib.sha256(normalised_source(path).encode()).hexdigest(), "imports": sorted(_parsed_imports(Path(path), own_name))}
+    disk[key] = facts
+    _DISK_STATE["dirty"] = True
+    return facts
 
 
 @cache
+def _facts_cached(path: Path, own_name: str | None) -> tuple[str, frozenset[str]]:
+    f = _facts(path, own_name)
+    return f["digest"], frozenset(f["imports"])
+
+
 def _imports(path: Path, own_name: str | None) -> frozenset[str]:
     """``scintrack`` modules imported anywhere in a file (``from a import b`` also tries ``a.b``)."""
+    return _facts_cached(Path(path), own_name)[1]
+
+
+def source_digest(path: Path, own_name: str | None = None) -> str:
+    """SHA-256 of :func:`normalised_source` of a file (cached, see the module docstring)."""
+    return _facts_cached(Path(path), own_name)[0]
+
+
+def _parsed_imports(path: Path, own_name: str | None) -> frozenset[str]:
+    """:func:`_imports` from the syntax tree itself."""
     package = None
     if own_name is not None:
         package = own_name if path.name == "__init__.py" else own_name.rpartition(".")[0]
@@ -165,7 +262,8 @@ def code_version(entries: Iterable[str | Path], length: int = 16) -> str:
     h = hashlib.sha256()
     for entry in entries:
         if (isinstance(entry, Path) or str(entry).endswith(".py")) and _module_name(Path(entry)) is None:
-            h.update(b"script\0" + normalised_source(entry).encode())
+            h.update(b"script\0" + source_digest(Path(entry)).encode())
     for name in import_closure(entries):
-        h.update(name.encode() + b"\0" + normalised_source(module_file(name)).encode())
+        h.update(name.encode() + b"\0" + source_digest(module_file(name), name).encode())
+    _save_disk()
     return h.hexdigest()[:length]

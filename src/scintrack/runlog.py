@@ -6,9 +6,15 @@ import logging
 import sys
 from pathlib import Path
 
+from . import profiling
+
 
 def setup(log_path: str | None, name: str) -> logging.Logger:
-    """A logger writing to ``log_path`` (and stderr); Python warnings are captured."""
+    """A logger writing to ``log_path`` (and stderr); Python warnings are captured.
+
+    Also the hook of the opt-in job profiler (:mod:`scintrack.profiling`).
+    """
+    profiling.start(name)
     logger = logging.getLogger(name)
     logger.setLevel(logging.INFO)
     logger.handlers.clear()

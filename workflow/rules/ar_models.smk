@@ -5,7 +5,7 @@
 rule ar_fit:
     """AR(1..max_order), PACF and PACF/AIC/BIC orders for one training set."""
     input:
-        lambda wc: training_path(wc.s4),
+        train=lambda wc: training_path(wc.s4),
     output:
         "results/ar_models/fits/s4-{s4}.nc",
     params:
@@ -15,6 +15,10 @@ rule ar_fit:
         "logs/ar_models/fit_s4-{s4}.log",
     benchmark:
         "results/benchmarks/ar_fit/s4-{s4}.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("ar_fit"),
+        runtime=RES.runtime("ar_fit"),
     script:
         "../scripts/fit_ar.py"
 
@@ -32,6 +36,10 @@ rule ar_lut:
         "logs/ar_models/ar_lut.log",
     benchmark:
         "results/benchmarks/ar_lut.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("ar_lut"),
+        runtime=RES.runtime("ar_lut"),
     script:
         "../scripts/merge_lut.py"
 
@@ -48,6 +56,10 @@ rule ar_diagnostics:
         code=code("ar_diagnostics.py"),
     log:
         "logs/vila_valls_2018/ar_diagnostics.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("ar_diagnostics"),
+        runtime=RES.runtime("ar_diagnostics"),
     script:
         "../scripts/ar_diagnostics.py"
 
@@ -56,9 +68,10 @@ rule ar_diagnostics:
 # phase models fitted on the wrapped phase, only when an experiment asks for
 # them (experiments.<name>.lut: wrapped).
 rule ar_fit_wrapped:
-    """AR fits of one training set with the phase models on the wrapped phase."""
+    """AR fits of one training set with the phase models on the wrapped phase (amplitude fits copied from ar_fit)."""
     input:
-        lambda wc: training_path(wc.s4),
+        train=lambda wc: training_path(wc.s4),
+        unwrapped="results/ar_models/fits/s4-{s4}.nc",
     output:
         "results/ar_models/wrapped/fits/s4-{s4}.nc",
     params:
@@ -66,6 +79,10 @@ rule ar_fit_wrapped:
         code=code("fit_ar.py"),
     log:
         "logs/ar_models/wrapped/fit_s4-{s4}.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("ar_fit_wrapped"),
+        runtime=RES.runtime("ar_fit_wrapped"),
     script:
         "../scripts/fit_ar.py"
 
@@ -81,6 +98,10 @@ rule ar_lut_wrapped:
         code=code("merge_lut.py"),
     log:
         "logs/ar_models/wrapped/ar_lut.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("ar_lut_wrapped"),
+        runtime=RES.runtime("ar_lut_wrapped"),
     script:
         "../scripts/merge_lut.py"
 
@@ -99,5 +120,9 @@ rule vv_floors:
         "logs/vila_valls_2018/floors_{scenario}.log",
     benchmark:
         "results/benchmarks/vv_floors/{scenario}.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("vv_floors"),
+        runtime=RES.runtime("vv_floors"),
     script:
         "../scripts/floors.py"

@@ -149,3 +149,8 @@ GIT = git_state(Path(workflow.basedir))
 ARCHIVE_VERSION = version_of(SCINTRACK_VERSION, GIT)
 ARCHIVE_FILE = f"archive/{config['archive']['name']}-{ARCHIVE_VERSION}.tar.gz"
 ALL_RESULTS = sorted(P.results(config))
+
+
+# --- threads and resources (mem_mb, runtime in minutes) of the computing rules,
+# measured on a full run (scintrack.pipeline.resources); changing them reruns nothing
+from scintrack.pipeline import resources as RES

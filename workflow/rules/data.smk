@@ -13,6 +13,10 @@ rule csm_training_set:
         "logs/data/csm_train_s4-{s4}_{version}.log",
     benchmark:
         "results/benchmarks/csm_training_set/s4-{s4}_{version}.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("csm_training_set"),
+        runtime=RES.runtime("csm_training_set"),
     script:
         "../scripts/make_csm_training.py"
 

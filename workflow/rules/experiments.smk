@@ -24,6 +24,10 @@ rule tracking_shard:
         "logs/experiments/{experiment}/{scenario}/shard-{shard}.log",
     benchmark:
         "results/benchmarks/tracking_shard/{experiment}/{scenario}/shard-{shard}.tsv"
+    threads: 1
+    resources:
+        mem_mb=lambda wc: RES.shard_mem_mb(config, wc.experiment, wc.scenario, int(wc.shard)),
+        runtime=lambda wc: RES.shard_runtime(config, wc.experiment, wc.scenario, int(wc.shard)),
     script:
         "../scripts/run_tracking_shard.py"
 
@@ -43,5 +47,9 @@ rule tracking_merge:
         code=code("merge_tracking.py"),
     log:
         "logs/experiments/{experiment}/{scenario}/merge.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("tracking_merge"),
+        runtime=RES.runtime("tracking_merge"),
     script:
         "../scripts/merge_tracking.py"

@@ -20,6 +20,10 @@ rule gps_jamming_dataset:
         "logs/data/gps_jamming.log",
     benchmark:
         "results/benchmarks/gps_jamming_dataset.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("gps_jamming_dataset"),
+        runtime=RES.runtime("gps_jamming_dataset"),
     script:
         "../scripts/make_gps_jamming.py"
 
@@ -37,6 +41,10 @@ rule gps_iq_recording:
         "logs/data/gps_iq.log",
     benchmark:
         "results/benchmarks/gps_iq_recording.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("gps_iq_recording"),
+        runtime=RES.runtime("gps_iq_recording"),
     script:
         "../scripts/make_gps_iq.py"
 
@@ -52,6 +60,10 @@ rule zhao_cn0_estimates:
         code=code("zhao_cn0.py"),
     log:
         "logs/zhao_jamming/cn0_estimates.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("zhao_cn0_estimates"),
+        runtime=RES.runtime("zhao_cn0_estimates"),
     script:
         "../scripts/zhao_cn0.py"
 
@@ -68,6 +80,10 @@ rule zhao_iq_spectrum:
         code=code("zhao_iq_spectrum.py"),
     log:
         "logs/zhao_jamming/iq_spectrum.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("zhao_iq_spectrum"),
+        runtime=RES.runtime("zhao_iq_spectrum"),
     script:
         "../scripts/zhao_iq_spectrum.py"
 
@@ -89,6 +105,10 @@ rule zhao_channel:
         "logs/zhao_jamming/channel_prn{prn}.log",
     benchmark:
         "results/benchmarks/zhao_channel/prn{prn}.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.zhao_channel_mem_mb(config),
+        runtime=RES.zhao_channel_runtime(config),
     script:
         "../scripts/zhao_channel.py"
 
@@ -105,6 +125,10 @@ rule zhao_receiver:
         code=code("zhao_receiver.py"),
     log:
         "logs/zhao_jamming/receiver.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("zhao_receiver"),
+        runtime=RES.runtime("zhao_receiver"),
     script:
         "../scripts/zhao_receiver.py"
 
@@ -121,5 +145,9 @@ rule zhao_cn0_sweep_point:
         code=code("zhao_sweep_point.py"),
     log:
         "logs/zhao_jamming/cn0_sweep_{cn0}.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("zhao_cn0_sweep_point"),
+        runtime=RES.runtime("zhao_cn0_sweep_point"),
     script:
         "../scripts/zhao_sweep_point.py"

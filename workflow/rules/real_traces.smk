@@ -53,6 +53,10 @@ else:
             "logs/data/surrogate_{event}_{version}.log",
         benchmark:
             "results/benchmarks/surrogate_event/{event}_{version}.tsv"
+        threads: 1
+        resources:
+            mem_mb=RES.mem_mb("surrogate_event"),
+            runtime=RES.runtime("surrogate_event"),
         script:
             "../scripts/make_surrogate.py"
 
@@ -68,6 +72,10 @@ rule trace_ar_models:
         code=code("trace_ar_models.py"),
     log:
         f"logs/real_traces/{RT_SOURCE}/ar_models_{{event}}.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("trace_ar_models"),
+        runtime=RES.runtime("trace_ar_models"),
     script:
         "../scripts/trace_ar_models.py"
 
@@ -83,6 +91,10 @@ rule trace_diagnostics:
         code=code("trace_diagnostics.py"),
     log:
         f"logs/real_traces/{RT_SOURCE}/diagnostics.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("trace_diagnostics"),
+        runtime=RES.runtime("trace_diagnostics"),
     script:
         "../scripts/trace_diagnostics.py"
 
@@ -101,6 +113,10 @@ rule trace_static:
         f"logs/real_traces/{RT_SOURCE}/static_{{event}}.log",
     benchmark:
         f"results/benchmarks/trace_static/{RT_SOURCE}_{{event}}.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("trace_static"),
+        runtime=RES.runtime("trace_static"),
     script:
         "../scripts/trace_experiment.py"
 
@@ -120,5 +136,9 @@ rule trace_dynamics:
         f"logs/real_traces/{RT_SOURCE}/dynamics_{{event}}.log",
     benchmark:
         f"results/benchmarks/trace_dynamics/{RT_SOURCE}_{{event}}.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("trace_dynamics"),
+        runtime=RES.runtime("trace_dynamics"),
     script:
         "../scripts/trace_experiment.py"

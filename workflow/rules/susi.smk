@@ -17,6 +17,10 @@ rule susi_surrogate:
         "logs/data/susi_surrogate_{name}_{version}.log",
     benchmark:
         "results/benchmarks/susi_surrogate/{name}_{version}.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("susi_surrogate"),
+        runtime=RES.runtime("susi_surrogate"),
     script:
         "../scripts/make_surrogate.py"
 
@@ -32,5 +36,9 @@ rule susi_indices:
         code=code("susi_indices.py"),
     log:
         "logs/susi_2014/indices_{scenario}.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("susi_indices"),
+        runtime=RES.runtime("susi_indices"),
     script:
         "../scripts/susi_indices.py"

@@ -7,12 +7,13 @@ from scintrack.models.lut import fit_training_set
 sm = snakemake  # noqa: F821
 log = runlog.setup(sm.log[0], "ar_fit")
 ar = sm.params.fit["ar_models"]
-train = open_dataset(sm.input[0])
+train = open_dataset(sm.input.train)
 wrapped = sm.params.fit.get("phase", "unwrapped") == "wrapped"
-fits = fit_training_set(train, ar["max_order"], ar["pacf_lags"], ar["pacf_alpha"], ar["pacf_lengths_s"], wrap_phase=wrapped)
+reuse = open_dataset(sm.input.unwrapped) if "unwrapped" in sm.input.keys() else None  # its amplitude fits (same series)
+fits = fit_training_set(train, ar["max_order"], ar["pacf_lags"], ar["pacf_alpha"], ar["pacf_lengths_s"], wrap_phase=wrapped, reuse=reuse, progress=log.info)
 if wrapped:
     fits.attrs["phase_fitted"] = "wrapped angle(exp(j theta)) (reading R5)"
-fits.attrs.update(provenance(config=sm.params.fit, inputs=sm.input))
+fits.attrs.update(provenance(config=sm.params.fit, inputs=list(sm.input)))
 fits.attrs["ts"] = train.attrs["ts"]
 write_netcdf(fits, sm.output[0])
 log.info("fitted %s", sm.input[0])

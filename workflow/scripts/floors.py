@@ -11,7 +11,7 @@ fl = run["floors"]
 ds = floors_table(
     open_dataset(sm.input.lut), [(run["s4"], run["tau0"])], tracking=run["tracking"], seed=int(run["seed"]), ts=float(run["ts"]),
     duration_s=float(fl["duration_s"]), realisations=int(fl["realisations"]), groups=int(fl["groups"]), nspa=int(run["nspa"]),
-    warmup_s=float(run["warmup_s"]), stride=int(fl["stride"]),
+    warmup_s=float(run["warmup_s"]), stride=int(fl["stride"]), progress=log.info,
 )
 ds = ds.assign_coords(scenario=[run["scenario"]])
 ds.attrs.update({"scenario": run["scenario"], "s4": run["s4"], "tau0": run["tau0"], "cn0_dbhz": float(run["tracking"]["cn0_dbhz"]),

@@ -1,7 +1,7 @@
 """Experiment rule entry point: merge shards into one result with statistics."""
 
 from scintrack import runlog
-from scintrack.experiments.runner import merge
+from scintrack.experiments.merge import merge
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821

@@ -36,6 +36,7 @@ ds = run_shard(
     trials=list(run["trials"]),
     trace=trace,
     trace_set=trace_set,
+    progress=log.info,
 )
 tracking = effective_tracking(scenario, run["tracking"])
 fd0, fr = scenario_dynamics(scenario, tracking)

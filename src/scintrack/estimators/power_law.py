@@ -69,6 +69,7 @@ recovers p within 0.03 and T within ~6 %.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -101,11 +102,12 @@ class SpectrumSetup(NamedTuple):
     dft_im: np.ndarray
 
 
+@functools.lru_cache(maxsize=16)
 def spectrum_setup(n_window: int, ts: float, f_lo_hz: float, f_hi_hz: float) -> SpectrumSetup:
     """Constants for a window of ``n_window`` samples at ``ts`` fitted over [f_lo_hz, f_hi_hz].
 
     ``k_lo = ceil(f_lo N ts)``, ``k_hi = floor(f_hi N ts)`` (to 1e-9 of a bin,
-    so that a band edge on a bin keeps it); requires ``1 <= k_lo < k_hi <=
+    so that a band edge on a bin keeps it; cached: callers must not write into the arrays); requires ``1 <= k_lo < k_hi <=
     N/2 - 1`` (two fitted bins, each with both neighbours below Nyquist).
     """
     n = int(n_window)
@@ -238,6 +240,10 @@ def estimate_power_law(
     t_out = np.empty((rows.shape[0], starts.size))
     p_out = np.empty((rows.shape[0], starts.size))
     chunk = max(1, 2_000_000 // n_win)  # windows per rfft call (bounds the memory)
+    if starts.size == 1 and n == n_win:  # one window per row (the SAKF's refresh): one rfft over the rows, same bins
+        bins = np.fft.rfft(rows, axis=-1)[:, setup.k]
+        _fit_rows(setup, np.ascontiguousarray(bins.real), np.ascontiguousarray(bins.imag), t_out[:, 0], p_out[:, 0])
+        return np.array([(n_win - 1) * ts]), t_out.reshape(*lead, 1), p_out.reshape(*lead, 1)
     for r in range(rows.shape[0]):
         for c in range(0, starts.size, chunk):
             sel = starts[c : c + chunk]

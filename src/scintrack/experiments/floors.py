@@ -108,6 +108,7 @@ realisations, with the look-up table's amplitude AR(3).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -319,6 +320,26 @@ def thrice_integrated_covariance(t1: np.ndarray, t2: np.ndarray | None = None, *
     return (2 * np.pi) ** 2 * q_jerk / 4.0 * m3 * (m * m / 5.0 + d * m / 2.0 + d * d / 3.0)
 
 
+@functools.lru_cache(maxsize=1)
+def _dynamics_covariance(n: int, ts: float, q_jerk: float) -> np.ndarray:
+    """C_d of :func:`thrice_integrated_covariance` at ``t_k = k ts``, k < n (read-only; the same for every (c) solve of a job)."""
+    t = np.arange(n) * ts
+    cd = np.empty((n, n))
+    for r in range(0, n, 500):  # row blocks: no further N x N temporaries
+        cd[r:r + 500] = thrice_integrated_covariance(t[r:r + 500], t, q_jerk=q_jerk)
+    cd.setflags(write=False)
+    return cd
+
+
+@functools.lru_cache(maxsize=1)
+def _dynamics_cross_covariance(n: int, ts: float, q_jerk: float, start: int, stride: int) -> np.ndarray:
+    """Columns ``start::stride`` of C_d (read-only)."""
+    t = np.arange(n) * ts
+    cd = thrice_integrated_covariance(t, t[start::stride], q_jerk=q_jerk)
+    cd.setflags(write=False)
+    return cd
+
+
 def phase_noise_variance(cn0_dbhz: float, ts: float) -> float:
     """``R_phi = 1 / (2 C/N0 Ts)`` [rad^2]: thermal phase noise of one prompt at the nominal amplitude."""
     return 1.0 / (2.0 * 10.0 ** (cn0_dbhz / 10.0) * ts)
@@ -332,7 +353,7 @@ def gls_error_variance(cov_s: np.ndarray, *, ts: float, cn0_dbhz: float, duratio
     for no scintillation).  ``stride``: evaluate every ``stride``-th epoch of the
     window (default 1 for (b), 10 for (c)).
     """
-    from scipy.linalg import cho_factor, cho_solve, toeplitz
+    from scipy.linalg import cho_factor, cho_solve, solve_toeplitz, toeplitz
 
     n = int(round(duration_s / ts))
     cov_s = np.asarray(cov_s, dtype=float)
@@ -342,24 +363,27 @@ def gls_error_variance(cov_s: np.ndarray, *, ts: float, cn0_dbhz: float, duratio
     t = np.arange(n) * ts
     k = np.arange(int(round(steady_start_s / ts)), n, stride)
     X = np.vander(t / duration_s, 3, increasing=True)  # scaled basis: same span, better conditioned
+    if q_jerk == 0:  # C is Toeplitz: Levinson-Durbin, O(n^2) for the 3 columns of X (issue 14)
+        col = cov_s[:n].copy()
+        col[0] += phase_noise_variance(cn0_dbhz, ts)
+        V = np.linalg.inv(X.T @ solve_toeplitz(col, X, check_finite=False))
+        g = X[k]
+        var = np.einsum("ki,ij,kj->k", g, V, g)
+        if np.any(var <= 0):
+            raise FloatingPointError("non-positive error variance: C is too ill-conditioned")
+        return t[k], var
     C = toeplitz(cov_s[:n])
     C[np.diag_indices(n)] += phase_noise_variance(cn0_dbhz, ts)
-    if q_jerk > 0:
-        for r in range(0, n, 500):  # row blocks: no N x N temporaries
-            C[r:r + 500] += thrice_integrated_covariance(t[r:r + 500], t, q_jerk=q_jerk)
+    C += _dynamics_covariance(n, ts, q_jerk)
     try:
         cf = cho_factor(C, lower=True, overwrite_a=True, check_finite=False)
     except np.linalg.LinAlgError as exc:
         raise np.linalg.LinAlgError("C = C_s (+ C_d) + R_phi I is not positive definite") from exc
     V = np.linalg.inv(X.T @ cho_solve(cf, X, check_finite=False))
-    if q_jerk == 0:
-        g = X[k]
-        var = np.einsum("ki,ij,kj->k", g, V, g)
-    else:
-        cd = thrice_integrated_covariance(t, t[k], q_jerk=q_jerk)
-        ci_cd = cho_solve(cf, cd, check_finite=False)
-        u = X[k].T - X.T @ ci_cd
-        var = cd[k, np.arange(k.size)] - np.sum(cd * ci_cd, axis=0) + np.einsum("ik,ij,jk->k", u, V, u)
+    cd = _dynamics_cross_covariance(n, ts, q_jerk, int(k[0]), stride)
+    ci_cd = cho_solve(cf, cd, check_finite=False)
+    u = X[k].T - X.T @ ci_cd
+    var = cd[k, np.arange(k.size)] - np.sum(cd * ci_cd, axis=0) + np.einsum("ik,ij,jk->k", u, V, u)
     if np.any(var <= 0):
         raise FloatingPointError("non-positive error variance: C is too ill-conditioned")
     return t[k], var
@@ -402,7 +426,7 @@ def _interval(full: float, groups: Sequence[float]) -> tuple[float, float]:
 
 def floors_table(lut, scenarios: Sequence[tuple[float, float]], *, tracking: Mapping[str, Any], seed: int, ts: float = 0.01,
                  duration_s: float = 60.0, realisations: int = 200, groups: int = 5, nspa: int = 8, warmup_s: float = 10.0,
-                 stride: int = 10) -> Any:
+                 stride: int = 10, progress=None) -> Any:
     """All floors for the (S4, tau0) cells: ``xarray.Dataset`` with dims (scenario, reading, floor).
 
     ``tracking``: the config section (``cn0_dbhz``, ``amplitude``, ``q_jerk_hz2_s3``,
@@ -414,8 +438,11 @@ def floors_table(lut, scenarios: Sequence[tuple[float, float]], *, tracking: Map
     left out of C_s), ``rmse_offset_corrected`` (``sqrt(rmse^2 + window_mean_var)``
     for (b) and (c), interval shifted the same way; NaN for (a)),
     ``riccati_note`` and ``riccati_settling_time_s``.
+    ``progress``: where to write progress lines (readings done, rate, ETA), e.g. a log's ``info``.
     """
     import xarray as xr
+
+    from ..progress import Progress
 
     cn0, amp, q = float(tracking["cn0_dbhz"]), float(tracking["amplitude"]), float(tracking["q_jerk_hz2_s3"])
     start = float(tracking["steady_state_start_s"])
@@ -433,6 +460,7 @@ def floors_table(lut, scenarios: Sequence[tuple[float, float]], *, tracking: Map
     def wrapped_rms(var):
         return float(np.sqrt(wrapped_gaussian_ms(var).mean()))
 
+    prog = Progress(len(scenarios) * len(READINGS), unit="readings", log=progress, label=f"floors ({realisations} realisations)")
     for i, (s4, tau0) in enumerate(scenarios):
         ar1 = scintillation_ar(lut, s4, tau0)
         unwrapped = csm_phase_series(s4, tau0, wrapped=False, n_epochs=n, ts=ts, seed=seed, realisations=realisations, nspa=nspa,
@@ -469,6 +497,7 @@ def floors_table(lut, scenarios: Sequence[tuple[float, float]], *, tracking: Map
                 rmse[i, j, f], wr[i, j, f] = float(np.sqrt(var.mean())), wrapped_rms(var)
                 gvals = [gls_floor(a, q_jerk=qq, stride=None if qq == 0 else stride, **gls_kw) for a in group_acf]
                 lo[i, j, f], hi[i, j, f] = _interval(rmse[i, j, f], gvals)
+            prog.add(1, note=f"S4 {s4:g} tau0 {tau0:g} {reading}")
     corr, corr_lo, corr_hi = (np.full(shape, np.nan) for _ in range(3))
     gls = [FLOORS.index("gls_quadratic"), FLOORS.index("gls_with_qd")]
     for dst, src in ((corr, rmse), (corr_lo, lo), (corr_hi, hi)):

@@ -1,7 +1,7 @@
 """Monte Carlo runner: one shard (scenario x trackers x a block of trials).
 
 A shard's result holds only *mergeable* statistics, so shards can run as
-separate jobs (or on a cluster) and be combined exactly by :func:`merge`:
+separate jobs (or on a cluster) and be combined exactly by :func:`~scintrack.experiments.merge.merge`:
 
 * ``sq_sum`` / ``sq2_sum`` (tracker, kind, time): sums over trials of e^2 and
   e^4, ``kind`` in {wrapped, unwrapped} (see :mod:`.metrics`);
@@ -58,7 +58,7 @@ an attribute, so the content hash of the results does not depend on them).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -66,13 +66,14 @@ import numpy as np
 import xarray as xr
 
 from ..io import canonical_json
+from ..progress import Progress
 from ..trackers import registry
 from ..trackers.base import TrackerContext
-from .metrics import rmse_with_ci, slip_counts, steady_rmse, unwrapped_error, wrap
+from .merge import MONITORS, merge  # noqa: F401  (merge: re-exported; it lives in .merge, light to import)
+from .metrics import slip_counts, unwrapped_error, wrap
 from .scenario import acquisition, effective_tracking, simulate
 
 KINDS = ("wrapped", "unwrapped")
-MONITORS = ("phi3", "p", "weight", "T")  # on-line SAKF quantities averaged over trials (T: median)
 
 
 def block_mean(a: np.ndarray, block: int) -> np.ndarray:
@@ -117,8 +118,13 @@ def run_shard(
     trials: Sequence[int],
     trace: tuple[np.ndarray, np.ndarray] | None = None,
     trace_set=None,
+    progress: Callable[[str], object] | None = None,
 ) -> xr.Dataset:
-    """One shard; ``trace``/``trace_set``: a recorded scintillation and its fitted AR models (Sec. VI-E)."""
+    """One shard; ``trace``/``trace_set``: a recorded scintillation and its fitted AR models (Sec. VI-E).
+
+    ``progress``: where to write progress lines (filter-epochs done, rate, ETA;
+    :class:`scintrack.progress.Progress`), e.g. the job log's ``info``.
+    """
     tracking = effective_tracking(scenario, tracking)
     real = simulate(scenario_name, scenario, tracking, seed=seed, ts=ts, nspa=nspa, warmup_s=warmup_s, trials=trials, lut=lut, trace=trace)
     init = acquisition(real, tracking)
@@ -154,6 +160,7 @@ def run_shard(
     slips_tot = np.zeros((nt, real.trials.size), dtype=np.int64)
     events_tot = np.zeros_like(slips_tot)
     context = TrackerContext(scenario=scenario, tracking=tracking, lut=lut, ts=ts, trace_set=trace_set)
+    prog = Progress(nt * real.trials.size * n_epochs, unit="filter-epochs", log=progress, label=f"{scenario_name} ({real.trials.size} trials)")
     for j, name in enumerate(tracker_names):
         tracker = registry.build(name, tracker_specs[name], context)
         if hasattr(tracker, "ar_sets"):  # the AEKF-AR: its scintillation phase (and the adaptive S4) estimates
@@ -198,6 +205,7 @@ def run_shard(
                 stat = np.nanmedian(v, axis=0) if m == "T" else np.nanmean(v, axis=0)
                 monitors[m][j] = block_mean(stat, block)
         del out, eu
+        prog.add(real.trials.size * n_epochs, note=f"{name} done")
     ds = xr.Dataset(
         {
             "sq_sum": (("tracker", "kind", "time"), sq, {"long_name": "sum over trials of the squared phase error", "units": "rad2"}),
@@ -255,61 +263,3 @@ def run_shard(
 def tracker_labels(names: Sequence[str], specs: Mapping[str, Mapping[str, Any]]) -> str:
     """Canonical JSON ``{name: plain-text label}`` (the ``tracker_labels`` attribute of results)."""
     return canonical_json({name: registry.label(name, specs[name]) for name in names})
-
-
-def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:
-    """Combine shards exactly and add the reduced statistics."""
-    shards = sorted(shards, key=lambda d: int(d["example_trial"]))
-    first = shards[0]
-    n = int(sum(int(d["n_trials"]) for d in shards))
-    out = xr.Dataset(
-        {
-            "sq_sum": sum(d["sq_sum"] for d in shards),
-            "sq2_sum": sum(d["sq2_sum"] for d in shards),
-            "ms_steady": xr.concat([d["ms_steady"] for d in shards], dim="trial"),
-            "slips": xr.concat([d["slips"] for d in shards], dim="trial"),
-            "slip_events": xr.concat([d["slip_events"] for d in shards], dim="trial"),
-            "ms_total_steady": xr.concat([d["ms_total_steady"] for d in shards], dim="trial"),
-            "slips_total": xr.concat([d["slips_total"] for d in shards], dim="trial"),
-            "slip_events_total": xr.concat([d["slip_events_total"] for d in shards], dim="trial"),
-            "time_in_lock": xr.concat([d["time_in_lock"] for d in shards], dim="trial"),
-            "s4_hat_median": xr.concat([d["s4_hat_median"] for d in shards], dim="trial"),
-            "example_error": first["example_error"],
-            "example_trial": first["example_trial"],
-            "s4_true": first["s4_true"],
-            "tau0_true": first["tau0_true"],
-            "s4_hat_mean": sum(d["s4_hat_mean"] * int(d["n_trials"]) for d in shards) / n,
-            "n_trials": n,
-        }
-    )
-    optional = [k for k in ("jitter_discriminator", "jitter_tracking") if k in first]
-    for key in optional:
-        out[key] = xr.concat([d[key] for d in shards], dim="trial")
-    for key in ("example_discriminator", "example_frequency", "example_frequency_true"):
-        if key in first:
-            out[key] = first[key]
-    for m in MONITORS:
-        key = f"{m}_mean"
-        if key in first:
-            out[key] = sum(d[key] * int(d["n_trials"]) for d in shards) / n if m != "T" else first[key]  # T: the first shard's median
-    out.attrs.update(first.attrs)
-    trials = out["trial"].values
-    if np.unique(trials).size != trials.size:
-        raise ValueError("shards overlap: a trial index appears twice")
-    rmse, lo, hi = rmse_with_ci(out["sq_sum"].values, out["sq2_sum"].values, n)
-    attrs = {"units": "rad"}
-    out["rmse"] = (("tracker", "kind", "time"), rmse, {**attrs, "long_name": "RMSE of theta_d over trials"})
-    out["rmse_lo"] = (("tracker", "kind", "time"), lo, {**attrs, "long_name": "lower 95% limit of the RMSE"})
-    out["rmse_hi"] = (("tracker", "kind", "time"), hi, {**attrs, "long_name": "upper 95% limit of the RMSE"})
-    s, slo, shi = steady_rmse(out["ms_steady"].values, axis=-1)
-    out["steady_rmse"] = (("tracker", "kind"), s, {**attrs, "long_name": "steady-state RMSE of theta_d"})
-    out["steady_rmse_lo"] = (("tracker", "kind"), slo, attrs)
-    out["steady_rmse_hi"] = (("tracker", "kind"), shi, attrs)
-    s, slo, shi = steady_rmse(out["ms_total_steady"].values, axis=-1)
-    out["steady_rmse_total"] = (("tracker",), s, {**attrs, "long_name": "steady-state RMSE of the wrapped total-phase error"})
-    out["steady_rmse_total_lo"] = (("tracker",), slo, attrs)
-    out["steady_rmse_total_hi"] = (("tracker",), shi, attrs)
-    for key in ("sq_sum", "sq2_sum", "slips", "slip_events", "ms_steady", "example_error", "s4_true", "s4_hat_mean", "ms_total_steady", "slips_total",
-                "slip_events_total", "time_in_lock", *optional):
-        out[key].attrs.update(first[key].attrs)
-    return out

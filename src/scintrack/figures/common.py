@@ -12,11 +12,17 @@ import os
 from collections.abc import Iterable
 from pathlib import Path
 
-import matplotlib
 
-matplotlib.use("Agg")
+def _pyplot():
+    """matplotlib.pyplot on the Agg backend, imported on first use: building the
+    Snakemake DAG imports every figure module (the product registry) and must
+    not pay for matplotlib (issue 14)."""
+    import matplotlib
 
-import matplotlib.pyplot as plt  # noqa: E402
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 STYLE = {
     "figure.dpi": 100,
@@ -34,6 +40,7 @@ PNG_METADATA = {"Software": None}
 
 
 def new_figure(nrows: int = 2, ncols: int = 1, *, figsize=(6.4, 6.0), **kwargs):
+    plt = _pyplot()
     with plt.rc_context(STYLE):
         fig, axes = plt.subplots(nrows, ncols, figsize=figsize, **kwargs)
     return fig, axes
@@ -42,6 +49,7 @@ def new_figure(nrows: int = 2, ncols: int = 1, *, figsize=(6.4, 6.0), **kwargs):
 def save_figure(fig, paths: Iterable[str | os.PathLike]) -> list[Path]:
     """Save ``fig`` to every path (format from the suffix), atomically; close it."""
     written = []
+    plt = _pyplot()
     with plt.rc_context(STYLE):
         for path in map(Path, paths):
             path.parent.mkdir(parents=True, exist_ok=True)

@@ -33,12 +33,17 @@ CRITERIA = ("pacf", "aic", "bic")
 
 
 def fit_training_set(
-    train: xr.Dataset, max_order: int, pacf_lags: int, alpha: float, pacf_lengths_s: Sequence[float] = (), wrap_phase: bool = False
+    train: xr.Dataset, max_order: int, pacf_lags: int, alpha: float, pacf_lengths_s: Sequence[float] = (), wrap_phase: bool = False,
+    reuse: xr.Dataset | None = None, progress=None,
 ) -> xr.Dataset:
     """Per-trial AR fits of one training dataset with dims (tau0, trial, time).
 
     ``wrap_phase``: fit the phase models on the wrapped phase ``angle(exp(j theta))``
     instead of the stored unwrapped one (reading R5 of the Vila-Valls simulation).
+    ``reuse``: the unwrapped fits of the same training set and settings; with
+    ``wrap_phase`` their amplitude component is copied instead of refitted (the
+    amplitude series is the same, so are its fits: issue 14).
+    ``progress``: where to write progress lines (series fitted, rate, ETA).
 
     ``pacf_lengths_s`` adds the PACF-rule order measured on the first
     ``L`` seconds of each series (the 95% band widens as 1/sqrt(N)), to show
@@ -56,9 +61,19 @@ def fit_training_set(
     pacf_b = np.zeros((n_t, n_r, n_c, pacf_lags + 1))
     chosen = np.zeros((n_t, n_r, n_c, len(CRITERIA)), dtype=np.int32)
     by_length = np.zeros((n_t, n_r, n_c, len(lengths)), dtype=np.int32)
+    copy = _reusable(reuse, train, max_order, pacf_lags, alpha, lengths) if wrap_phase else None
+    from ..progress import Progress
+
+    prog = Progress(n_t * n_r, unit="realisations", log=progress, label=f"AR fits S4 = {float(train['s4'].values):g}")
     for i in range(n_t):
         for j in range(n_r):
             for c, comp in enumerate(COMPONENTS):
+                if copy is not None and comp == "amplitude":
+                    sel = copy.isel(tau0=i, trial=j).sel(component=comp)
+                    coef[i, j, c], const[i, j, c], sigma2[i, j, c] = sel["trial_coef"].values, sel["trial_const"].values, sel["trial_sigma2"].values
+                    pacf_v[i, j, c], pacf_b[i, j, c] = sel["trial_pacf"].values, sel["trial_pacf_bound"].values
+                    chosen[i, j, c], by_length[i, j, c] = sel["trial_selected_order"].values, sel["trial_pacf_order_by_length"].values
+                    continue
                 x = np.asarray(train[comp].values[i, j], dtype=float)
                 if wrap_phase and comp == "phase":
                     x = np.angle(np.exp(1j * x))
@@ -76,7 +91,10 @@ def fit_training_set(
                     ic_order(fits, "bic"),
                 ]
                 for k, length in enumerate(lengths):
-                    by_length[i, j, c, k] = pacf_order(*pacf_with_bound(x[: int(round(length / ts))], pacf_lags, alpha))
+                    n_len = int(round(length / ts))
+                    # the whole series: the PACF just computed (same call, same values)
+                    by_length[i, j, c, k] = chosen[i, j, c, 0] if n_len >= x.size else pacf_order(*pacf_with_bound(x[:n_len], pacf_lags, alpha))
+            prog.add(1)
     coords = {
         "tau0": tau0s,
         "trial": trials,
@@ -103,6 +121,21 @@ def fit_training_set(
     ds = ds.expand_dims(s4=[float(train["s4"].values)])
     ds.attrs.update({"pacf_alpha": alpha, "max_order": max_order, "estimator": "statsmodels AutoReg (conditional ML / OLS)", "pacf_method": "statsmodels pacf(method='ols')"})
     return ds
+
+
+def _reusable(reuse: xr.Dataset | None, train: xr.Dataset, max_order: int, pacf_lags: int, alpha: float, lengths) -> xr.Dataset | None:
+    """``reuse`` if it holds the fits of exactly this training set and these settings, else an error (None: nothing given)."""
+    if reuse is None:
+        return None
+    ok = (
+        int(reuse.attrs.get("max_order", -1)) == max_order and reuse.sizes.get("pacf_lag") == pacf_lags + 1
+        and float(reuse.attrs.get("pacf_alpha", -1)) == alpha and np.array_equal(reuse["tau0"].values, train["tau0"].values)
+        and np.array_equal(reuse["trial"].values, train["trial"].values) and float(reuse["s4"].values[0]) == float(train["s4"].values)
+        and np.array_equal(reuse["pacf_length"].values, np.asarray(lengths, dtype=float))
+    )
+    if not ok:
+        raise ValueError("the unwrapped fits given for reuse were made from another training set or other ar_models settings")
+    return reuse.isel(s4=0)
 
 
 def _mode(values: np.ndarray, axis: int) -> np.ndarray:

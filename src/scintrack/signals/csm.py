@@ -48,6 +48,8 @@ GENERATOR_VERSION = "csm-1"
 
 BETA0 = 1.23964643681047
 NSPA_DEFAULT = 8
+#: sub-sample working set of one generation block [bytes] (see :func:`trial_chunks`)
+CHUNK_BYTES = 64 * 2**20
 
 
 def rice_k_from_s4(s4: float | np.ndarray) -> np.ndarray:
@@ -156,13 +158,30 @@ def generate_csm(
     b, a = butterworth(tau0, ts_sub)
     n_sub = (n_epochs + warmup) * nspa
     from scipy import signal  # imported where used: keeps importing the package (DAG parsing) light
-    xi = signal.lfilter(b, a, _white_noise(seed, name, trials, n_sub), axis=-1)
-    xi = xi[:, warmup * nspa :]
-    sigma2 = 0.5 * np.mean(np.abs(xi) ** 2, axis=-1, keepdims=True)
-    zbar = np.sqrt(2.0 * sigma2 * k)
-    z_sub = zbar + xi
-    z_sub = z_sub / np.sqrt(np.mean(np.abs(z_sub) ** 2, axis=-1, keepdims=True))
-    return CsmRealisation(z=_decimate(z_sub, nspa, output), ts=ts)
+
+    trials = list(trials)
+    z = np.empty((len(trials), n_epochs), dtype=complex)
+    for lo, hi in trial_chunks(len(trials), n_sub):  # streamed: every step below is row-wise
+        xi = signal.lfilter(b, a, _white_noise(seed, name, trials[lo:hi], n_sub), axis=-1)
+        xi = xi[:, warmup * nspa :]
+        sigma2 = 0.5 * np.mean(np.abs(xi) ** 2, axis=-1, keepdims=True)
+        zbar = np.sqrt(2.0 * sigma2 * k)
+        z_sub = zbar + xi
+        z_sub = z_sub / np.sqrt(np.mean(np.abs(z_sub) ** 2, axis=-1, keepdims=True))
+        z[lo:hi] = _decimate(z_sub, nspa, output)
+    return CsmRealisation(z=z, ts=ts)
+
+
+def trial_chunks(n_trials: int, n_sub: int, budget_bytes: int = CHUNK_BYTES) -> list[tuple[int, int]]:
+    """Row blocks ``[lo, hi)`` whose complex sub-sample arrays (``n_sub`` samples per row) fit ``budget_bytes``.
+
+    Generation streams over these blocks (issue 14: 500 s x 500 trials at
+    ``Nspa = 8`` would otherwise hold several GB); the values do not depend on
+    the blocking, since every operation is per row (one seed stream, one
+    filter pass, one normalisation per trial).
+    """
+    rows = max(1, int(budget_bytes // (16 * max(n_sub, 1))))
+    return [(lo, min(lo + rows, n_trials)) for lo in range(0, n_trials, rows)]
 
 
 @dataclass(frozen=True)
@@ -204,8 +223,6 @@ def generate_csm_profile(
         raise ValueError("profile segments must have strictly increasing start_s")
     ts_sub = ts / nspa
     n_sub = (n_epochs + warmup) * nspa
-    w = _white_noise(seed, name, trials, n_sub)
-    xi = np.empty_like(w)
     los = np.empty(n_sub)
     diffuse_scale = np.empty(n_sub)
     bounds = [warmup * nspa + int(round(s.start_s / ts_sub)) for s in segments]
@@ -213,18 +230,25 @@ def generate_csm_profile(
     bounds.append(n_sub)
     from scipy import signal  # imported where used: keeps importing the package (DAG parsing) light
 
-    zi = np.zeros((w.shape[0], 2), dtype=complex)
-    for seg, lo, hi in zip(segments, bounds[:-1], bounds[1:]):
-        if hi <= lo:
-            continue
-        b, a = butterworth(seg.tau0, ts_sub)
-        xi[:, lo:hi], zi = signal.lfilter(b, a, w[:, lo:hi], axis=-1, zi=zi)
-        k = float(rice_k_from_s4(seg.s4))
-        power = 2.0 * _filter_power(b, a, seg.tau0, ts_sub)
-        los[lo:hi] = np.sqrt(k / (1.0 + k))
-        diffuse_scale[lo:hi] = np.sqrt(1.0 / ((1.0 + k) * power))
-    z_sub = (los + diffuse_scale * xi)[:, warmup * nspa :]
-    z = _decimate(z_sub, nspa, output)
+    trials = list(trials)
+    out = np.empty((len(trials), n_epochs), dtype=complex)
+    for r0, r1 in trial_chunks(len(trials), n_sub):  # streamed, row-wise (see trial_chunks)
+        w = _white_noise(seed, name, trials[r0:r1], n_sub)
+        xi = np.empty_like(w)
+        zi = np.zeros((w.shape[0], 2), dtype=complex)
+        for seg, lo, hi in zip(segments, bounds[:-1], bounds[1:]):
+            if hi <= lo:
+                continue
+            b, a = butterworth(seg.tau0, ts_sub)
+            xi[:, lo:hi], zi = signal.lfilter(b, a, w[:, lo:hi], axis=-1, zi=zi)
+            k = float(rice_k_from_s4(seg.s4))
+            power = 2.0 * _filter_power(b, a, seg.tau0, ts_sub)
+            los[lo:hi] = np.sqrt(k / (1.0 + k))
+            diffuse_scale[lo:hi] = np.sqrt(1.0 / ((1.0 + k) * power))
+        del w
+        z_sub = (los + diffuse_scale * xi)[:, warmup * nspa :]
+        out[r0:r1] = _decimate(z_sub, nspa, output)
+    z = out
     t = np.arange(n_epochs) * ts
     idx = np.searchsorted(starts, t, side="right") - 1
     s4_t = np.array([segments[i].s4 for i in idx])

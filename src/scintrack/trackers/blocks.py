@@ -4,14 +4,16 @@ Vila-Valls et al. 2018 (Sec. IV-V) equations and the block that implements them:
 
 * eq. (8), (11) prediction ``x <- F x (+ kappa)``, ``P <- F P F^T + Q`` with
   the block-diagonal F given by its non-zeros: :func:`predict` (and
-  :func:`nonzeros` to list them);
+  :func:`nonzeros` to list them); the same for F = blkdiag(dynamics, AR
+  companion, AR companion) using that structure, on lanes (below):
+  :func:`ar_predict` (and :func:`ar_coefficients`);
 * scalar measurement update (discriminator KFs, ``H = [1, 0, 0, (1, 0..)]``,
   Sec. V-A): :func:`scalar_update` (its ``P H^T`` and ``S``: :func:`innovation_terms`);
   with a weighted gain and the Joseph covariance (Susi 2014, eq. 12):
   :func:`weighted_scalar_update`; Susi's eq. (10) R: :func:`costas_variance`;
   the (phase, frequency) white-noise Q of Susi's eqs. (3)-(8): :func:`phase_frequency_q`;
 * eqs. (13)-(14) I/Q (2 x 2) EKF update with the Jacobian of ``h(x) = A rho_s
-  [cos(theta_d + theta_s), sin(theta_d + theta_s)]`` in closed form:
+  [cos(theta_d + theta_s), sin(theta_d + theta_s)]`` in closed form, on lanes:
   :func:`iq_update`;
 * ATAN2 discriminator ``atan2(Q, I)`` of the prompt against the replica phase:
   :func:`atan2_discriminator`; its data-insensitive (Costas) form ``atan(Q/I)``:
@@ -21,9 +23,11 @@ Vila-Valls et al. 2018 (Sec. IV-V) equations and the block that implements them:
   :func:`m2m4_signal_power`, :func:`m2m4_split`; C/N0 from the powers:
   :func:`cn0_from_powers`;
 * sliding-window running sums (ring buffers, exact re-sum once per lap):
-  :func:`window_push`, window moments :func:`window_mean_var`;
+  :func:`window_push` (on lanes: :func:`window_push_lanes`), window moments
+  :func:`window_mean_var`;
 * noise-corrected S4 from intensity moments (Sec. V-B): :func:`s4_corrected`;
-* nearest adaptation point (Sec. V-B): :func:`nearest_index`;
+* nearest adaptation point (Sec. V-B): :func:`nearest_index` (on lanes:
+  :func:`nearest_index_lanes`);
 * the mirror fold of the AEKF-AR (an isolating option, not in the paper):
   :func:`fold_mirror`; periodic symmetrisation of P: :func:`symmetrise`;
 * third-order PLL loop filter (Kaplan & Hegarty): :func:`pll_constants`,
@@ -36,14 +40,27 @@ fastmath on here).  Plain Python can call them on scalars, and the
 array-valued formulas used by the vectorised numpy estimators
 (:mod:`scintrack.estimators`) are ``numba.vectorize`` ufuncs compiled from the
 *same* Python function (``*_ufunc`` below), so no formula is written twice.
+
+Lanes (last section): ``LANES`` trials side by side as one SIMD vector per
+matrix entry (``Lanes``, an LLVM ``<LANES x double>``), for kernels that run
+trials in blocks (the AEKF-AR).  Its operators are IEEE per lane exactly as
+numba lowers the scalar ones, so the scalar blocks (``m2m4_split``,
+``window_mean_var``, ``s4_corrected``, ...) compile unchanged for ``Lanes``
+arguments and give, lane by lane, the bits of the scalar call
+(``tests/test_trackers.py::test_lane_blocks_are_the_scalar_blocks_bit_for_bit``).
 """
 
 from __future__ import annotations
 
 import math
+import operator
 
 import numpy as np
-from numba import njit, vectorize
+from llvmlite import ir as llvm_ir
+from numba import njit, types, vectorize
+from numba.core import cgutils
+from numba.core.errors import TypingError
+from numba.extending import intrinsic, models, overload, register_model
 
 _F8_2 = ["float64(float64, float64)"]
 _F8_3 = ["float64(float64, float64, float64)"]
@@ -249,42 +266,6 @@ def scalar_update(x, P, PH, H, R, nu):
 
 
 @njit(cache=True)
-def iq_update(x, P, ph0, ph1, A, ir, r, yr, yi):
-    """EKF update on z = [I, Q] (eqs. 13-14), R = r I_2.
-
-    H has non-zero entries only in the columns of theta_d (0), theta_s,k (3)
-    and rho_s,k (``ir``), so ``P H^T`` is two weighted column sums and the
-    2 x 2 innovation covariance is inverted in closed form.
-    """
-    n = x.size
-    th = x[0] + x[3]
-    rho = x[ir]
-    c_, s_ = math.cos(th), math.sin(th)
-    a0, a1 = -A * rho * s_, A * rho * c_
-    b0, b1 = A * c_, A * s_
-    for a in range(n):
-        u = P[a, 0] + P[a, 3]
-        v = P[a, ir]
-        ph0[a] = a0 * u + b0 * v
-        ph1[a] = a1 * u + b1 * v
-    hu0 = ph0[0] + ph0[3]
-    hu1 = ph1[0] + ph1[3]
-    s00 = a0 * hu0 + b0 * ph0[ir] + r
-    s01 = a0 * hu1 + b0 * ph1[ir]
-    s11 = a1 * hu1 + b1 * ph1[ir] + r
-    det = s00 * s11 - s01 * s01
-    i00, i01, i11 = s11 / det, -s01 / det, s00 / det
-    e0 = yr - A * rho * c_
-    e1 = yi - A * rho * s_
-    for a in range(n):
-        k0 = ph0[a] * i00 + ph1[a] * i01
-        k1 = ph0[a] * i01 + ph1[a] * i11
-        x[a] += k0 * e0 + k1 * e1
-        for b in range(n):
-            P[a, b] -= k0 * ph0[b] + k1 * ph1[b]
-
-
-@njit(cache=True)
 def fold_mirror(x, P, ir):
     """(rho, theta_s) -> (-rho, theta_s + pi) on every lag; P -> J P J."""
     n = x.size
@@ -379,3 +360,487 @@ def weighted_scalar_update(x, P, PH, H, R, nu, w):
     for a in range(n):
         for b in range(n):
             P[a, b] -= g * PH[a] * PH[b]
+
+
+# --- lanes: LANES trials side by side, as SIMD vectors (the AEKF-AR kernel) -----------
+#
+# The arrays of the lane blocks carry the trial on their LAST axis: x (n, LANES),
+# P (n, n, LANES), per-trial scalars (LANES,), all C-contiguous float64.  The
+# LANES values of one entry form one ``Lanes`` value, an LLVM ``<LANES x double>``
+# vector (LANES = 32: four AVX-512 registers, eight AVX2 ones; LLVM splits it),
+# loaded (:func:`lane_load`),
+# combined with + - * / and unary - (IEEE fadd, fsub, fmul, fdiv and numba's
+# ``-0.0 - v`` negation on every lane, without fast-math flags: no FMA
+# contraction, no reassociation) and stored (:func:`lane_store`).  Each lane so
+# evaluates exactly the scalar expression, in the same order: its bits are those
+# of the one-trial formula.  (Why explicit vectors: numba leaves LLVM's SLP
+# vectoriser off and cannot tell LLVM that the arrays of a loop over lanes do not
+# alias, so a plain loop over the lanes stays scalar or pays run-time
+# alias checks on every matrix entry, several times slower.)  32 lanes: the
+# AEKF-AR ran 11, 16, 20 and 20 M filter-epochs/s with 8, 16, 32 and 64 (the
+# per-vector overheads amortise up to 32; 64 only adds padding and cache).
+
+LANES = 32
+
+
+class Lanes(types.Type):
+    """LANES float64 values, one per trial (an LLVM vector; only inside compiled code)."""
+
+    def __init__(self):
+        super().__init__(name=f"Lanes{LANES}xf64")
+
+
+lanes_t = Lanes()
+_VEC = llvm_ir.VectorType(llvm_ir.DoubleType(), LANES)
+
+
+@register_model(Lanes)
+class _LanesModel(models.PrimitiveModel):
+    def __init__(self, dmm, fe_type):
+        super().__init__(dmm, fe_type, _VEC)
+
+
+def _check_array(arr):
+    if not (isinstance(arr, types.Array) and arr.dtype == types.float64 and arr.layout == "C"):
+        raise TypingError(f"lane_load / lane_store need a C-contiguous float64 array, got {arr}")
+
+
+def _lane_ptr(context, builder, aty, arr, offset):
+    data = context.make_array(aty)(context, builder, arr).data
+    return builder.bitcast(builder.gep(data, [offset]), _VEC.as_pointer())
+
+
+@intrinsic
+def lane_load(typingctx, arr, offset):
+    """The LANES values ``arr.flat[offset : offset + LANES]`` (``offset`` in elements, unchecked)."""
+    _check_array(arr)
+
+    def codegen(context, builder, sig, args):
+        return builder.load(_lane_ptr(context, builder, sig.args[0], args[0], args[1]), align=8)
+
+    return lanes_t(arr, offset), codegen
+
+
+@intrinsic
+def lane_store(typingctx, arr, offset, value):
+    """``arr.flat[offset : offset + LANES] = value`` (unchecked)."""
+    _check_array(arr)
+
+    def codegen(context, builder, sig, args):
+        builder.store(args[2], _lane_ptr(context, builder, sig.args[0], args[0], args[1]), align=8)
+        return context.get_dummy_value()
+
+    return types.none(arr, offset, lanes_t), codegen
+
+
+_I32 = llvm_ir.IntType(32)
+
+
+def _splat(builder, value):
+    undef = llvm_ir.Constant(_VEC, None)
+    one = builder.insert_element(undef, value, llvm_ir.Constant(_I32, 0))
+    return builder.shuffle_vector(one, undef, llvm_ir.Constant(llvm_ir.VectorType(_I32, LANES), [0] * LANES))
+
+
+def _is_operand(ty):
+    return ty == lanes_t or isinstance(ty, (types.Float, types.Integer))
+
+
+def _lanes_args(*tys):
+    """True when the arguments are Lanes and plain numbers, at least one Lanes."""
+    return any(t == lanes_t for t in tys) and all(_is_operand(t) for t in tys)
+
+
+def _as_lanes(context, builder, ty, value):
+    """A Lanes value as is; a number as numba's scalar arithmetic converts it (to float64), on every lane."""
+    return value if ty == lanes_t else _splat(builder, context.cast(builder, value, ty, types.float64))
+
+
+@intrinsic
+def lane_splat(typingctx, value):
+    """``value`` (a number, converted to float64) on every lane."""
+    if _is_operand(value) and value != lanes_t:
+        return lanes_t(value), lambda context, builder, sig, args: _as_lanes(context, builder, sig.args[0], args[0])
+
+
+def _lanes_intrinsic(n_args, emit):
+    """An intrinsic on Lanes of ``n_args`` arguments (numbers broadcast): ``emit(builder, *vectors)``."""
+
+    def typer(*args):
+        if _lanes_args(*args):
+
+            def codegen(context, builder, sig, vals):
+                return emit(builder, *(_as_lanes(context, builder, t, v) for t, v in zip(sig.args, vals)))
+
+            return lanes_t(*args), codegen
+        return None
+
+    if n_args == 1:
+        return intrinsic(lambda typingctx, a: typer(a))
+    if n_args == 2:
+        return intrinsic(lambda typingctx, a, b: typer(a, b))
+    return intrinsic(lambda typingctx, a, b, c, d: typer(a, b, c, d))
+
+
+def _overload_lanes(pyfunc, op, n_args):
+    if n_args == 1:
+
+        @overload(pyfunc)
+        def _impl1(a):
+            if _lanes_args(a):
+                return lambda a: op(a)
+
+    else:
+
+        @overload(pyfunc)
+        def _impl2(a, b):
+            if _lanes_args(a, b):
+                return lambda a, b: op(a, b)
+
+
+def _llvm_intrinsic(name):
+    def emit(builder, *vals):
+        fnty = llvm_ir.FunctionType(_VEC, [_VEC] * len(vals))
+        return builder.call(cgutils.get_or_insert_function(builder.module, fnty, f"{name}.v{LANES}f64"), vals)
+
+    return emit
+
+
+# IEEE operations on every lane, exactly as numba lowers them on one float64 (never fast-math):
+# a + b, a - b, a * b, a / b (a zero divisor is the caller's check), -a (-0.0 - a,
+# mathimpl.negate_real), max(a, b) = (b if b > a else a), min(a, b) = (b if b < a else a)
+# (ordered compares, builtins.do_minmax), math.sqrt and abs (llvm.sqrt, llvm.fabs).  So the
+# scalar blocks' Python functions compile unchanged for Lanes arguments (one formula).
+for _pyfunc, _n, _emit in (
+    (operator.add, 2, lambda b, x, y: b.fadd(x, y)),
+    (operator.sub, 2, lambda b, x, y: b.fsub(x, y)),
+    (operator.mul, 2, lambda b, x, y: b.fmul(x, y)),
+    (operator.truediv, 2, lambda b, x, y: b.fdiv(x, y)),
+    (operator.neg, 1, lambda b, x: b.fsub(llvm_ir.Constant(_VEC, [-0.0] * LANES), x)),
+    (max, 2, lambda b, x, y: b.select(b.fcmp_ordered(">", y, x), y, x)),
+    (min, 2, lambda b, x, y: b.select(b.fcmp_ordered("<", y, x), y, x)),
+    (math.sqrt, 1, _llvm_intrinsic("llvm.sqrt")),
+    (abs, 1, _llvm_intrinsic("llvm.fabs")),
+):
+    _overload_lanes(_pyfunc, _lanes_intrinsic(_n, _emit), _n)
+
+
+@overload(operator.pow)
+def _lanes_pow(a, b):
+    """``a ** k``, k a literal integer >= 0, by numba's unrolled squaring (cpython.numbers.static_power_impl)."""
+    if a == lanes_t and isinstance(b, types.IntegerLiteral) and b.literal_value >= 0:
+        k = b.literal_value
+
+        def impl(a, b):
+            res = lane_splat(1.0)
+            val = a
+            e = k
+            while e != 0:
+                if e & 1:
+                    res = res * val
+                e >>= 1
+                val = val * val
+            return res
+
+        return impl
+
+
+#: ``where(a < b, x, y)`` on every lane (ordered compare); numbers are broadcast
+lane_where_less = _lanes_intrinsic(4, lambda b, a_, b_, x, y: b.select(b.fcmp_ordered("<", a_, b_), x, y))
+
+
+@njit(cache=True)
+def lanes_empty(shape):
+    """``np.empty(shape)`` (float64, C order) starting on a 64-byte boundary.
+
+    numba aligns arrays to 32 bytes; a lane vector (LANES x 8 bytes, a multiple
+    of 64) that straddles cache lines costs a second access on every load and
+    store (measured: ar_predict 60 % slower).
+    """
+    size = 1
+    for s in shape:
+        size *= s
+    buf = np.empty(size + 8)
+    off = (64 - buf.ctypes.data % 64) % 64 // 8
+    return buf[off : off + size].reshape(shape)
+
+
+# rows of the per-set coefficient table of ar_predict (ar_coefficients)
+C_F01, C_F02, C_F12 = 0, 1, 2  # F_d[0, 1], F_d[0, 2], F_d[1, 2]
+C_QD = 3  # Q_d, 9 entries row-major
+C_QT, C_QR, C_KAP = 12, 13, 14  # Q[3, 3], Q[ir, ir], kappa (on the rho_s,k row)
+C_AR = 15  # beta_1..beta_p, then gamma_1..gamma_q
+
+
+def ar_coefficients(F: np.ndarray, Q: np.ndarray, kap: np.ndarray, p: int, q: int) -> np.ndarray:
+    """Per-set coefficient rows (sets, C_AR + p + q) of :func:`ar_predict`, from stacked F, Q, kappa.
+
+    Checks that F is ``blkdiag(F_d, companion(beta), companion(gamma))`` with
+    ``F_d`` upper triangular with a unit diagonal (eq. 8), that Q is
+    ``blkdiag(Q_d, sigma_theta^2, 0.., sigma_rho^2, 0..)`` and that kappa sits on
+    the rho_s,k row only (eq. 11): the structure :func:`ar_predict` assumes.
+    """
+    F, Q, kap = (np.asarray(a, dtype=float) for a in (F, Q, kap))
+    n, ir = 3 + p + q, 3 + p
+    if p < 1 or q < 1:
+        raise ValueError(f"the state needs at least one phase and one amplitude lag (p = {p}, q = {q})")
+    if F.ndim != 3 or F.shape[1:] != (n, n) or Q.shape != F.shape or kap.shape != F.shape[:2]:
+        raise ValueError(f"F, Q, kappa must be (sets, {n}, {n}), (sets, {n}, {n}), (sets, {n})")
+    co = np.zeros((F.shape[0], C_AR + p + q))
+    for j in range(F.shape[0]):
+        f = np.zeros((n, n))
+        f[:3, :3] = np.triu(F[j, :3, :3])
+        np.fill_diagonal(f[:3, :3], 1.0)
+        f[3, 3:ir], f[ir, ir:] = F[j, 3, 3:ir], F[j, ir, ir:]
+        for a in (*range(4, ir), *range(ir + 1, n)):
+            f[a, a - 1] = 1.0
+        qq = np.zeros((n, n))
+        qq[:3, :3], qq[3, 3], qq[ir, ir] = Q[j, :3, :3], Q[j, 3, 3], Q[j, ir, ir]
+        kk = np.zeros(n)
+        kk[ir] = kap[j, ir]
+        if not (np.array_equal(f, F[j]) and np.array_equal(qq, Q[j]) and np.array_equal(kk, kap[j])):
+            raise ValueError(f"set {j}: F, Q or kappa is not of the [dynamics, AR(p) companion, AR(q) companion] form")
+        co[j, C_F01], co[j, C_F02], co[j, C_F12] = F[j, 0, 1], F[j, 0, 2], F[j, 1, 2]
+        co[j, C_QD : C_QD + 9] = Q[j, :3, :3].ravel()
+        co[j, C_QT], co[j, C_QR], co[j, C_KAP] = Q[j, 3, 3], Q[j, ir, ir], kap[j, ir]
+        co[j, C_AR : C_AR + p], co[j, C_AR + p :] = F[j, 3, 3:ir], F[j, ir, ir:]
+    return co
+
+
+@njit(cache=True)
+def ar_predict(x, P, xn, Pn, G, co, p, q):
+    """``xn = F x + kappa``, ``Pn = F P F^T + Q`` on lanes, F = blkdiag(F_d, companion(beta), companion(gamma)).
+
+    ``co`` (C_AR + p + q, LANES): each lane's coefficients (:func:`ar_coefficients`);
+    ``G`` (4, n, LANES): work array; ``xn``/``Pn`` must not be ``x``/``P`` (swap them after).
+
+    Structure: rows 2, 4..ir-1 and ir+1..n-1 of F select one row of what they
+    multiply, so only rows 0, 1, 3 and ir of ``F P`` (``G``) and columns 0, 1,
+    2, 3 and ir of ``(F P) F^T`` take arithmetic; the lag shifts are copies.
+    Each entry is the sum :func:`predict` forms, over the same non-zeros in the
+    same order (``Q`` first on the right product, ``kappa`` or 0 first for x),
+    with the unit entries of F taken exactly (``1 v = v``).  So x is
+    :func:`predict`'s bit for bit and P too, up to the sign of exact zeros: an
+    exact-zero AR coefficient (the padding of a lower order) adds an exact +-0
+    instead of being skipped, and a shifted zero is not renormalised to +0 (no
+    operation downstream of P distinguishes -0 from +0, and x never gets a -0).
+    Flop count: :func:`ar_predict_flops`.
+    """
+    L = LANES
+    n = 3 + p + q
+    ir = 3 + p
+    b0 = C_AR  # beta_1
+    g0 = C_AR + p  # gamma_1
+    if (p < 1 or q < 1 or x.shape != (n, L) or xn.shape != (n, L) or P.shape != (n, n, L) or Pn.shape != (n, n, L)
+            or G.shape != (4, n, L) or co.shape != (C_AR + p + q, L)):
+        raise ValueError("ar_predict: arrays must be x, xn (n, LANES), P, Pn (n, n, LANES), G (4, n, LANES), co (C_AR + p + q, LANES)")
+    f01 = lane_load(co, C_F01 * L)
+    f02 = lane_load(co, C_F02 * L)
+    f12 = lane_load(co, C_F12 * L)
+    # G = rows 0, 1, 3 and ir of F P
+    for c in range(n):
+        p0 = lane_load(P, c * L)
+        p1 = lane_load(P, (n + c) * L)
+        p2 = lane_load(P, (2 * n + c) * L)
+        lane_store(G, c * L, (p0 + f01 * p1) + f02 * p2)
+        lane_store(G, (n + c) * L, p1 + f12 * p2)
+        acc = lane_load(co, b0 * L) * lane_load(P, (3 * n + c) * L)
+        for j in range(1, p):
+            acc = acc + lane_load(co, (b0 + j) * L) * lane_load(P, ((3 + j) * n + c) * L)
+        lane_store(G, (2 * n + c) * L, acc)
+        acc = lane_load(co, g0 * L) * lane_load(P, (ir * n + c) * L)
+        for j in range(1, q):
+            acc = acc + lane_load(co, (g0 + j) * L) * lane_load(P, ((ir + j) * n + c) * L)
+        lane_store(G, (3 * n + c) * L, acc)
+    # Pn = (F P) F^T + Q row by row; row a of F P is a row of G or, for a selection row, of P
+    for a in range(n):
+        if a == 0 or a == 1:
+            R, r = G, a
+        elif a == 3:
+            R, r = G, 2
+        elif a == ir:
+            R, r = G, 3
+        elif a == 2:
+            R, r = P, 2
+        else:
+            R, r = P, a - 1
+        o = r * n * L  # row r of R
+        w = a * n * L  # row a of Pn
+        r0 = lane_load(R, o)
+        r1 = lane_load(R, o + L)
+        r2 = lane_load(R, o + 2 * L)
+        if a < 3:
+            qa = (C_QD + 3 * a) * L
+            lane_store(Pn, w, ((lane_load(co, qa) + r0) + f01 * r1) + f02 * r2)
+            lane_store(Pn, w + L, (lane_load(co, qa + L) + r1) + f12 * r2)
+            lane_store(Pn, w + 2 * L, lane_load(co, qa + 2 * L) + r2)
+        else:
+            lane_store(Pn, w, (r0 + f01 * r1) + f02 * r2)
+            lane_store(Pn, w + L, r1 + f12 * r2)
+            lane_store(Pn, w + 2 * L, r2)
+        acc = lane_load(co, b0 * L) * lane_load(R, o + 3 * L)
+        if a == 3:
+            acc = lane_load(co, C_QT * L) + acc
+        for j in range(1, p):
+            acc = acc + lane_load(co, (b0 + j) * L) * lane_load(R, o + (3 + j) * L)
+        lane_store(Pn, w + 3 * L, acc)
+        for b in range(4, ir):
+            lane_store(Pn, w + b * L, lane_load(R, o + (b - 1) * L))
+        acc = lane_load(co, g0 * L) * lane_load(R, o + ir * L)
+        if a == ir:
+            acc = lane_load(co, C_QR * L) + acc
+        for j in range(1, q):
+            acc = acc + lane_load(co, (g0 + j) * L) * lane_load(R, o + (ir + j) * L)
+        lane_store(Pn, w + ir * L, acc)
+        for b in range(ir + 1, n):
+            lane_store(Pn, w + b * L, lane_load(R, o + (b - 1) * L))
+    # x; every row of predict's x starts from kappa (0 off the rho_s,k row): kept, so x never holds a -0
+    zero = lane_splat(0.0)
+    x1 = lane_load(x, L)
+    x2 = lane_load(x, 2 * L)
+    lane_store(xn, 0, ((zero + lane_load(x, 0)) + f01 * x1) + f02 * x2)
+    lane_store(xn, L, (zero + x1) + f12 * x2)
+    lane_store(xn, 2 * L, zero + x2)
+    acc = zero + lane_load(co, b0 * L) * lane_load(x, 3 * L)
+    for j in range(1, p):
+        acc = acc + lane_load(co, (b0 + j) * L) * lane_load(x, (3 + j) * L)
+    lane_store(xn, 3 * L, acc)
+    acc = lane_load(co, C_KAP * L) + lane_load(co, g0 * L) * lane_load(x, ir * L)
+    for j in range(1, q):
+        acc = acc + lane_load(co, (g0 + j) * L) * lane_load(x, (ir + j) * L)
+    lane_store(xn, ir * L, acc)
+    for a in range(4, ir):
+        lane_store(xn, a * L, zero + lane_load(x, (a - 1) * L))
+    for a in range(ir + 1, n):
+        lane_store(xn, a * L, zero + lane_load(x, (a - 1) * L))
+
+
+def ar_predict_flops(p: int, q: int) -> int:
+    """Floating-point additions and multiplications of one :func:`ar_predict` per trial, counted from its code."""
+    n = 3 + p + q
+    g = n * (4 + 2 + (2 * p - 1) + (2 * q - 1))  # rows 0, 1, 3, ir of F P, per column
+    pn = 3 * (5 + 3 + 1) + (n - 3) * (4 + 2)  # columns 0-2 (with Q_d on rows 0-2)
+    pn += n * ((2 * p - 1) + (2 * q - 1)) + 2  # columns 3 and ir (+ Q[3, 3], Q[ir, ir])
+    xs = 5 + 3 + 1 + 2 * p + 2 * q + (p - 1) + (q - 1)  # x, every row from kappa or 0
+    return g + pn + xs
+
+
+@njit(cache=True)
+def iq_update(x, P, ph0, ph1, sc, A, ir, r, yr, yi):
+    """EKF update on z = [I, Q] (eqs. 13-14), R = r I_2, on lanes.
+
+    H has non-zero entries only in the columns of theta_d (0), theta_s,k (3)
+    and rho_s,k (``ir``), so ``P H^T`` (``ph0``, ``ph1``) is two weighted
+    column sums and the 2 x 2 innovation covariance is inverted in closed form;
+    ``x += K e``, ``P -= K (P H^T)^T`` (every entry, as the one-trial form had it).
+    ``x`` (n, LANES), ``P`` (n, n, LANES), ``r``/``yr``/``yi`` (LANES,);
+    work arrays ``ph0``, ``ph1`` (n, LANES) and ``sc`` (7, LANES).  A zero
+    innovation determinant raises ZeroDivisionError, as the scalar division did.
+    """
+    L = LANES
+    n = x.shape[0]
+    if (not 3 < ir < n or x.shape != (n, L) or P.shape != (n, n, L) or ph0.shape != (n, L) or ph1.shape != (n, L) or sc.shape != (7, L)
+            or r.shape != (L,) or yr.shape != (L,) or yi.shape != (L,)):
+        raise ValueError("iq_update: arrays must be x, ph0, ph1 (n, LANES), P (n, n, LANES), sc (7, LANES), r, yr, yi (LANES,), 3 < ir < n")
+    for ln in range(L):  # per lane: the linearisation point (libm cos and sin)
+        th = x[0, ln] + x[3, ln]
+        rho = x[ir, ln]
+        c_, s_ = math.cos(th), math.sin(th)
+        sc[0, ln] = -A * rho * s_  # a0
+        sc[1, ln] = A * rho * c_  # a1
+        sc[2, ln] = A * c_  # b0
+        sc[3, ln] = A * s_  # b1
+        sc[4, ln] = yr[ln] - A * rho * c_  # e0
+        sc[5, ln] = yi[ln] - A * rho * s_  # e1
+    a0 = lane_load(sc, 0)
+    a1 = lane_load(sc, L)
+    b0 = lane_load(sc, 2 * L)
+    b1 = lane_load(sc, 3 * L)
+    for a in range(n):
+        o = a * n * L
+        u = lane_load(P, o) + lane_load(P, o + 3 * L)
+        v = lane_load(P, o + ir * L)
+        lane_store(ph0, a * L, a0 * u + b0 * v)
+        lane_store(ph1, a * L, a1 * u + b1 * v)
+    hu0 = lane_load(ph0, 0) + lane_load(ph0, 3 * L)
+    hu1 = lane_load(ph1, 0) + lane_load(ph1, 3 * L)
+    rr = lane_load(r, 0)
+    s00 = a0 * hu0 + b0 * lane_load(ph0, ir * L) + rr
+    s01 = a0 * hu1 + b0 * lane_load(ph1, ir * L)
+    s11 = a1 * hu1 + b1 * lane_load(ph1, ir * L) + rr
+    det = s00 * s11 - s01 * s01
+    lane_store(sc, 6 * L, det)
+    for ln in range(L):
+        if sc[6, ln] == 0.0:
+            raise ZeroDivisionError("division by zero")
+    i00 = s11 / det
+    i01 = -s01 / det
+    i11 = s00 / det
+    e0 = lane_load(sc, 4 * L)
+    e1 = lane_load(sc, 5 * L)
+    for a in range(n):
+        h0 = lane_load(ph0, a * L)
+        h1 = lane_load(ph1, a * L)
+        k0 = h0 * i00 + h1 * i01
+        k1 = h0 * i01 + h1 * i11
+        lane_store(x, a * L, lane_load(x, a * L) + (k0 * e0 + k1 * e1))
+        o = a * n * L
+        for b in range(n):
+            lane_store(P, o + b * L, lane_load(P, o + b * L) - (k0 * lane_load(ph0, b * L) + k1 * lane_load(ph1, b * L)))
+
+
+def iq_update_flops(n: int) -> int:
+    """Floating-point operations of one :func:`iq_update` per trial, counted from its code (3 of them
+    divisions; cos and sin, one libm call each, not counted)."""
+    point = 1 + 3 + 2 + 1 + 1 + 3 + 3  # th, a0 (with -A), a1, b0, b1, e0, e1
+    ph = 7 * n  # u, P H^T (two columns)
+    s = 2 + 4 + 3 + 4 + 3 + 4  # hu0, hu1, s00, s01, s11, det, S^-1 (3 divisions, one negation)
+    gain = 10 * n  # K (two columns) and x += K e
+    cov = 4 * n * n  # P -= K (P H^T)^T, every entry
+    return point + ph + s + gain + cov
+
+
+@njit(cache=True)
+def nearest_index_lanes(value, points):
+    """:func:`nearest_index` on every lane of ``value`` (Lanes): the index, as a float, of the nearest point (the first one on ties)."""
+    best = lane_splat(0.0)
+    best_d = abs(value - points[0])
+    for j in range(1, points.size):
+        d = abs(value - points[j])
+        best = lane_where_less(d, best_d, j, best)
+        best_d = lane_where_less(d, best_d, d, best_d)
+    return best
+
+
+@njit(cache=True)
+def window_push_lanes(b1, b2, pos, s1, s2, count, v1, v2):
+    """:func:`window_push` on LANES ring buffers at once; returns (pos, count), updates ``s1``, ``s2`` in place.
+
+    ``b1``, ``b2`` (window, LANES): one ring buffer per lane (column); ``s1``,
+    ``s2`` (LANES,) their running sums; ``v1``, ``v2`` (LANES,) the values
+    pushed.  Per lane the arithmetic of :func:`window_push`: ``s += v - b[pos]``
+    and, once per lap, the exact re-sum in index order from 0 (as
+    ``ndarray.sum`` in numba).
+    """
+    L = LANES
+    w = b1.shape[0]
+    if b1.shape != (w, L) or b2.shape != (w, L) or s1.shape != (L,) or s2.shape != (L,) or v1.shape != (L,) or v2.shape != (L,) or not 0 <= pos < w:
+        raise ValueError("window_push_lanes: buffers (window, LANES), sums and values (LANES,), 0 <= pos < window")
+    o = pos * L
+    a1 = lane_load(v1, 0)
+    a2 = lane_load(v2, 0)
+    lane_store(s1, 0, lane_load(s1, 0) + (a1 - lane_load(b1, o)))
+    lane_store(s2, 0, lane_load(s2, 0) + (a2 - lane_load(b2, o)))
+    lane_store(b1, o, a1)
+    lane_store(b2, o, a2)
+    pos = (pos + 1) % w
+    count = min(count + 1, w)
+    if pos == 0:
+        t1 = lane_splat(0.0)
+        t2 = lane_splat(0.0)
+        for j in range(w):
+            t1 = t1 + lane_load(b1, j * L)
+            t2 = t2 + lane_load(b2, j * L)
+        lane_store(s1, 0, t1)
+        lane_store(s2, 0, t2)
+    return pos, count

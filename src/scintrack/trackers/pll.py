@@ -53,6 +53,7 @@ def pll_kernel(y, prm):
     k3, k2, k1 = blocks.pll_constants(prm.bandwidth_hz, prm.ts)
     out = np.empty((n, k))
     freq = np.empty((n, k))
+    disc = np.empty((n, k))
     for t in range(n):
         phase, v, w = prm.phase0[t], prm.v0[t], prm.w0[t]
         for i in range(k):
@@ -62,8 +63,9 @@ def pll_kernel(y, prm):
                 e = blocks.atan_discriminator(y[t, i].real, y[t, i].imag, phase)
             else:
                 e = blocks.atan2_discriminator(y[t, i].real, y[t, i].imag, phase)
+            disc[t, i] = e
             phase, v, w = blocks.pll_step(phase, v, w, e, k3, k2, k1, prm.ts)
-    return out, freq
+    return out, freq, disc
 
 
 @register("pll")
@@ -100,8 +102,8 @@ class PLL:
     def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
         """Compiled loop (:func:`pll_kernel`)."""
         y = np.ascontiguousarray(y, dtype=complex)
-        phase, freq = pll_kernel(y, self.params(init))
-        return TrackOutput(theta_d=phase, extras={"frequency_hz": freq, "discriminator": self.discriminator_output(y, phase)})
+        phase, freq, disc = pll_kernel(y, self.params(init))  # disc: the e_k the loop used (= discriminator_output)
+        return TrackOutput(theta_d=phase, extras={"frequency_hz": freq, "discriminator": disc})
 
     def discriminator_output(self, y: np.ndarray, phase: np.ndarray) -> np.ndarray:
         """``e_k`` of every epoch: the discriminator of the prompt against the NCO phase that correlated it."""

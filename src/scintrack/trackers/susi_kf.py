@@ -58,6 +58,7 @@ Config: ``{type: susi_akf, clock: ocxo}``,
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -163,11 +164,18 @@ def susi_kernel(y, i0, i1, prm, x_all, P_all, buf2, buf4, sums, counters, s_phi,
 
 def quadratic_detrend(windows: np.ndarray) -> np.ndarray:
     """Residual of a least-squares quadratic fit along the last axis (rows: trials)."""
-    n = windows.shape[-1]
-    m = np.linspace(-1.0, 1.0, n)
-    basis, _ = np.linalg.qr(np.stack([np.ones(n), m, m * m], axis=1))
+    basis = _quadratic_basis(windows.shape[-1])
     w = windows - windows[..., :1]
     return w - (w @ basis) @ basis.T
+
+
+@functools.lru_cache(maxsize=8)
+def _quadratic_basis(n: int) -> np.ndarray:
+    """Orthonormal basis (n, 3) of {1, m, m^2} on m in [-1, 1] (QR; cached per window length, read-only)."""
+    m = np.linspace(-1.0, 1.0, n)
+    basis, _ = np.linalg.qr(np.stack([np.ones(n), m, m * m], axis=1))
+    basis.setflags(write=False)
+    return basis
 
 
 @dataclass

@@ -102,14 +102,19 @@ FIELDS: dict[int, dict[str, Field]] = {
 }
 
 
+#: :data:`PARITY_TAPS` as (previous-word bit, mask of the data bits d_i at bit 24 - i)
+_PARITY_MASKS = tuple((prev_bit, sum(1 << (24 - i) for i in taps)) for prev_bit, taps in PARITY_TAPS)
+
+
 def parity(data24: int, d29s: int, d30s: int) -> int:
-    """Parity bits D25..D30 (6-bit integer, D25 first) of the source data d1..d24."""
-    prev = {29: d29s, 30: d30s}
+    """Parity bits D25..D30 (6-bit integer, D25 first) of the source data d1..d24.
+
+    Each bit is the previous word's D29* or D30* XOR the parity (popcount mod 2)
+    of the tapped data bits.
+    """
     out = 0
-    for prev_bit, taps in PARITY_TAPS:
-        p = prev[prev_bit]
-        for i in taps:
-            p ^= (data24 >> (24 - i)) & 1
+    for prev_bit, mask in _PARITY_MASKS:
+        p = (d29s if prev_bit == 29 else d30s) ^ ((data24 & mask).bit_count() & 1)
         out = (out << 1) | p
     return out
 

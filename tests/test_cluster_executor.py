@@ -1,0 +1,122 @@
+"""Scale-out without code change: the sharded smoke DAG through a cluster executor.
+
+``fig16`` needs the three ``cycle_slips`` results of the smoke config, two
+shards each, and the AR look-up table with its training sets.  Built with
+Snakemake's generic cluster executor, whose submit command is
+``tests/cluster/submit.sh`` (a stand-in for sbatch: it records each
+submission and starts the job script in the background as a process of its
+own), every shard must be a job of its own, every job must be submitted with
+the threads and resources its rule declares (``scintrack.pipeline.resources``)
+and the results must equal the same targets built by the local executor.
+"""
+
+from __future__ import annotations
+
+import collections
+import os
+import shlex
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import REPO, SNAKEMAKE
+
+from scintrack.config import load_config
+from scintrack.io import content_hash, open_dataset
+from scintrack.pipeline import resources as R
+
+pytestmark = pytest.mark.pipeline
+
+SUBMIT = REPO / "tests" / "cluster" / "submit.sh"
+SMOKE = load_config([REPO / "config" / "config.yaml", REPO / "config" / "smoke.yaml"])
+EXPERIMENT = "cycle_slips"  # the smoke experiment with more than one shard
+TARGETS = ("fig16",)  # Fig. 16 reads the experiment's three results
+DEFAULTS = {"mem_mb": 1000, "runtime": 10}  # --default-resources: the rules that declare none
+
+
+def snakemake(workdir: Path, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    """Build TARGETS in ``workdir`` with the smoke overlay (--configfile last: it takes every following word)."""
+    cmd = [SNAKEMAKE, *TARGETS, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), *args,
+           "--configfile", str(REPO / "config" / "smoke.yaml")]
+    env = dict(os.environ, PYTHONHASHSEED="0")
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def declared(rule: str, output: str) -> tuple[int, int, int]:
+    """(threads, mem_mb, runtime) that ``rule`` declares for the job writing ``output``."""
+    if rule == "tracking_shard":  # results/experiments/<experiment>/<scenario>/shard-<k>.nc
+        *_, experiment, scenario, name = Path(output).parts
+        shard = int(name.removeprefix("shard-").removesuffix(".nc"))
+        return 1, R.shard_mem_mb(SMOKE, experiment, scenario, shard), R.shard_runtime(SMOKE, experiment, scenario, shard)
+    if rule in R.MEASURED:
+        return 1, R.mem_mb(rule), R.runtime(rule)
+    return 1, DEFAULTS["mem_mb"], DEFAULTS["runtime"]
+
+
+def expected_jobs() -> collections.Counter:
+    spec = SMOKE["experiments"][EXPERIMENT]
+    return collections.Counter({
+        "csm_training_set": len(SMOKE["ar_training"]["s4"]), "ar_fit": len(SMOKE["ar_training"]["s4"]), "ar_lut": 1,
+        "tracking_shard": len(spec["scenarios"]) * int(spec["shards"]), "tracking_merge": len(spec["scenarios"]), "fig16": 1,
+    })
+
+
+def assert_same_dataset(a: Path, b: Path) -> None:
+    x, y = open_dataset(a), open_dataset(b)
+    assert content_hash(x) == content_hash(y), a
+    assert sorted(x.variables) == sorted(y.variables), a
+    for name in x.variables:
+        u, v = x[name].values, y[name].values
+        assert u.dtype == v.dtype and np.array_equal(u, v, equal_nan=u.dtype.kind in "fc"), (a, name)
+
+
+@pytest.fixture(scope="module")
+def builds(tmp_path_factory):
+    """The targets built by the cluster executor and by the local one."""
+    cluster, local = tmp_path_factory.mktemp("cluster"), tmp_path_factory.mktemp("local")
+    log = cluster / "submissions" / "jobs.tsv"
+    log.parent.mkdir()
+    submit = f"bash {shlex.quote(str(SUBMIT))} {shlex.quote(str(log))} {{rule}} {{threads}} {{resources.mem_mb}} {{resources.runtime}} '{{output}}'"
+    proc = snakemake(cluster, "--executor", "cluster-generic", "--cluster-generic-submit-cmd", submit, "--jobs", "4",
+                     "--seconds-between-status-checks", "1", "--latency-wait", "10",
+                     "--default-resources", *(f"{k}={v}" for k, v in DEFAULTS.items()))
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    ref = snakemake(local, "--cores", "2", "-q")
+    assert ref.returncode == 0, ref.stdout[-3000:] + ref.stderr[-3000:]
+    rows = [line.split("\t") for line in log.read_text().splitlines()]
+    return cluster, local, rows
+
+
+def test_every_shard_is_its_own_job(builds):
+    cluster, _, rows = builds
+    assert collections.Counter(r[1] for r in rows) == expected_jobs()
+    assert len({r[0] for r in rows}) == len(rows)  # one job id per submission
+    for job_id, *_ in rows:  # each ran as its own process, with its own output
+        assert (cluster / "submissions" / f"{job_id}.out").exists(), job_id
+    spec = SMOKE["experiments"][EXPERIMENT]
+    shards = sorted(r[5] for r in rows if r[1] == "tracking_shard")
+    assert shards == sorted(f"results/experiments/{EXPERIMENT}/{s}/shard-{k}.nc" for s in spec["scenarios"] for k in range(int(spec["shards"])))
+
+
+def test_jobs_submitted_with_declared_resources(builds):
+    _, _, rows = builds
+    for _, rule, threads, mem_mb, runtime, output in rows:
+        assert (int(threads), int(mem_mb), int(runtime)) == declared(rule, output.split()[0]), (rule, output)
+    # the declarations are not the defaults: the resources came from the rules
+    assert all(declared(r[1], r[5])[1:] != (DEFAULTS["mem_mb"], DEFAULTS["runtime"]) for r in rows if r[1] in R.MEASURED or r[1] == "tracking_shard")
+
+
+def test_cluster_results_equal_local_results(builds):
+    cluster, local, _ = builds
+    spec = SMOKE["experiments"][EXPERIMENT]
+    results = [Path("results/experiments") / EXPERIMENT / f"{s}.nc" for s in spec["scenarios"]]
+    lut = [Path("results/ar_models/ar_lut.nc")]
+    data = sorted(p.relative_to(local) for p in (local / "data" / "synthetic").rglob("*.nc"))
+    assert len(data) == len(SMOKE["ar_training"]["s4"])
+    for rel in results + lut + data:
+        assert_same_dataset(cluster / rel, local / rel)
+    figure = sorted(p.relative_to(local) for p in (local / "figures").rglob("fig16_*.png"))
+    assert len(figure) == 1
+    assert (cluster / figure[0]).read_bytes() == (local / figure[0]).read_bytes()
+    assert not list((cluster / "results" / "experiments" / EXPERIMENT).rglob("shard-*.nc"))  # temp(): removed after the merge

@@ -1,0 +1,164 @@
+"""The fast paths of issue 14 give exactly what the plain paths give.
+
+Each speed-up kept a result bit-identical (or, for the Levinson solve, equal
+to the dense solve within rounding); these tests pin that down so a later
+"optimisation" cannot silently change a number, and check the progress lines,
+the code-version disk cache and the profiler breakdown.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from scintrack import codeversion
+from scintrack.estimators import power_law
+from scintrack.progress import Progress
+from scintrack.signals import csm
+
+
+def test_csm_streamed_in_row_blocks_is_bit_identical(monkeypatch):
+    kw = dict(seed=3, name="chunks", trials=list(range(5)), n_epochs=700, ts=0.01, s4=0.7, tau0=0.3, nspa=8, warmup=50)
+    whole = csm.generate_csm(**kw).z
+    monkeypatch.setattr(csm, "CHUNK_BYTES", 16 * 8 * 750 * 2)  # two rows per block
+    assert len(csm.trial_chunks(5, 750 * 8, csm.CHUNK_BYTES)) == 3
+    assert np.array_equal(csm.generate_csm(**kw).z, whole)
+    segs = [csm.Segment(0.0, 0.8, 0.2), csm.Segment(3.0, 0.5, 0.4)]
+    prof_small = csm.generate_csm_profile(seed=3, name="p", trials=list(range(5)), n_epochs=700, ts=0.01, segments=segs, nspa=8, warmup=50)[0].z
+    monkeypatch.setattr(csm, "CHUNK_BYTES", 1 << 30)
+    prof_whole = csm.generate_csm_profile(seed=3, name="p", trials=list(range(5)), n_epochs=700, ts=0.01, segments=segs, nspa=8, warmup=50)[0].z
+    assert np.array_equal(prof_small, prof_whole)
+
+
+def test_trial_chunks_cover_every_row_once():
+    blocks = csm.trial_chunks(11, 1000, budget_bytes=16 * 1000 * 3)
+    assert blocks[0] == (0, 3) and blocks[-1] == (9, 11)
+    assert [i for lo, hi in blocks for i in range(lo, hi)] == list(range(11))
+    assert csm.trial_chunks(2, 10**9, budget_bytes=1) == [(0, 1), (1, 2)]  # at least one row per block
+
+
+def test_power_law_over_rows_in_one_fft_equals_row_by_row():
+    rng = np.random.default_rng(1)
+    phi = np.cumsum(rng.normal(size=(6, 3000)), axis=1)
+    _, t_all, p_all = power_law.estimate_power_law(phi, 0.001, window_s=3.0)
+    for r in range(phi.shape[0]):
+        _, t_r, p_r = power_law.estimate_power_law(phi[r], 0.001, window_s=3.0)
+        assert t_r.shape == (1,) and t_all[r, 0] == t_r[0] and p_all[r, 0] == p_r[0]
+    # the general path (several windows per row) on the same data: same numbers
+    _, t_two, p_two = power_law.estimate_power_law(np.concatenate([phi, phi], axis=1), 0.001, window_s=3.0)
+    assert np.array_equal(t_two[:, 0], t_all[:, 0]) and np.array_equal(p_two[:, 1], p_all[:, 0])
+
+
+def _tiny_training_set() -> xr.Dataset:
+    from scintrack.signals.csm import generate_csm
+
+    z = generate_csm(seed=5, name="t", trials=[0, 1], n_epochs=1500, ts=0.01, s4=0.6, tau0=0.4, nspa=4, warmup=50).z
+    amp = np.abs(z)[None]
+    phase = np.unwrap(np.angle(z), axis=-1)[None]
+    return xr.Dataset({"amplitude": (("tau0", "trial", "time"), amp), "phase": (("tau0", "trial", "time"), phase)},
+                      coords={"tau0": [0.4], "trial": [0, 1], "time": np.arange(1500) * 0.01, "s4": 0.6}, attrs={"ts": 0.01})
+
+
+def test_wrapped_fits_reusing_the_amplitude_fits_are_bit_identical():
+    from scintrack.models.lut import fit_training_set
+
+    train = _tiny_training_set()
+    args = (4, 6, 0.05, (3.0, 15.0))
+    unwrapped = fit_training_set(train, *args)
+    direct = fit_training_set(train, *args, wrap_phase=True)
+    reused = fit_training_set(train, *args, wrap_phase=True, reuse=unwrapped)
+    for name in direct.data_vars:
+        assert np.array_equal(direct[name].values, reused[name].values), name
+    assert not np.array_equal(direct["trial_coef"].sel(component="phase").values, unwrapped["trial_coef"].sel(component="phase").values)
+    with pytest.raises(ValueError, match="another training set"):
+        fit_training_set(train, 3, 6, 0.05, (3.0, 15.0), wrap_phase=True, reuse=unwrapped)  # other max_order
+
+
+def test_code_version_disk_cache_is_keyed_by_content(tmp_path, monkeypatch):
+    cache = tmp_path / "cache.json"
+    monkeypatch.setenv("SCINTRACK_CODE_CACHE", str(cache))
+    codeversion.clear_caches()
+    codeversion.clear_disk_cache_memory()
+    v1 = codeversion.code_version(["scintrack.progress"])
+    entries = json.loads(cache.read_text())
+    assert entries and all(set(e) == {"digest", "imports"} for e in entries.values())
+    assert oct(cache.stat().st_mode & 0o777) != oct(0o600)  # a normal file mode
+    codeversion.clear_caches()
+    codeversion.clear_disk_cache_memory()
+    assert codeversion.code_version(["scintrack.progress"]) == v1  # from the cache
+    # a poisoned entry under another key is never used; a corrupt cache is only a miss
+    cache.write_text("{not json")
+    codeversion.clear_caches()
+    codeversion.clear_disk_cache_memory()
+    assert codeversion.code_version(["scintrack.progress"]) == v1
+    monkeypatch.setenv("SCINTRACK_CODE_CACHE", "")
+    codeversion.clear_caches()
+    codeversion.clear_disk_cache_memory()
+    assert codeversion.code_version(["scintrack.progress"]) == v1  # no disk cache at all
+    codeversion.clear_caches()
+    codeversion.clear_disk_cache_memory()
+
+
+def test_code_version_cache_sees_an_edited_file(tmp_path, monkeypatch):
+    monkeypatch.setenv("SCINTRACK_CODE_CACHE", str(tmp_path / "cache.json"))
+    script = tmp_path / "job.py"
+    script.write_text("x = 1\n")
+    codeversion.clear_caches()
+    codeversion.clear_disk_cache_memory()
+    a = codeversion.code_version([script])
+    script.write_text("x = 1  # a comment\n")
+    codeversion.clear_caches()
+    assert codeversion.code_version([script]) == a
+    script.write_text("x = 2\n")
+    codeversion.clear_caches()
+    assert codeversion.code_version([script]) != a
+    codeversion.clear_caches()
+    codeversion.clear_disk_cache_memory()
+
+
+def test_progress_lines_give_rate_and_eta():
+    now = [0.0]
+    lines: list[str] = []
+    prog = Progress(1000, unit="epochs", log=lines.append, label="shard", every_s=10.0, clock=lambda: now[0])
+    now[0] = 2.0
+    prog.add(100)  # first call: logged
+    now[0] = 5.0
+    prog.add(150)  # within 10 s of the last line: not logged
+    now[0] = 20.0
+    prog.add(250)
+    now[0] = 21.0
+    prog.add(500, note="last")  # complete: always logged
+    assert len(lines) == 3
+    assert lines[0].startswith("shard: 100/1k epochs (10%), 50 epochs/s") and "ETA 18 s" in lines[0]
+    assert "500/1k epochs (50%)" in lines[1] and "ETA 20 s" in lines[1]
+    assert "(100%)" in lines[2] and "done" in lines[2] and lines[2].endswith("[last]")
+    quiet = Progress(10, unit="x", log=None)
+    quiet.add(10)  # no log: nothing happens
+
+
+def test_profiler_writes_a_breakdown_per_rule(tmp_path):
+    job = tmp_path / "job.py"
+    job.write_text(textwrap.dedent("""
+        import numpy as np
+        from scintrack import runlog
+        log = runlog.setup(None, "demo_rule")
+        from scintrack.signals.csm import generate_csm
+        generate_csm(seed=1, name="x", trials=[0, 1], n_epochs=2000, ts=0.01, s4=0.5, tau0=0.4)
+    """))
+    env = dict(os.environ, SCINTRACK_PROFILE=str(tmp_path / "prof"))
+    subprocess.run([sys.executable, str(job)], check=True, env=env, timeout=120)
+    (meta,) = (tmp_path / "prof" / "demo_rule").glob("*.json")
+    info = json.loads(meta.read_text())
+    assert info["rule"] == "demo_rule" and info["startup_s"] > 0 and info["profiled_s"] > 0
+    from scintrack.profiling import breakdown, markdown
+
+    (row,) = breakdown(tmp_path / "prof")
+    assert row["jobs"] == 1 and row.get("signal generation", 0) > 0
+    assert "| demo_rule | 1 |" in markdown([row])
