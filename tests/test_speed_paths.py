@@ -162,3 +162,17 @@ def test_profiler_writes_a_breakdown_per_rule(tmp_path):
     (row,) = breakdown(tmp_path / "prof")
     assert row["jobs"] == 1 and row.get("signal generation", 0) > 0
     assert "| demo_rule | 1 |" in markdown([row])
+
+
+def test_atomic_outputs_get_a_normal_file_mode(tmp_path):
+    from scintrack.io import write_netcdf, write_text
+
+    old = os.umask(0o022)
+    try:
+        write_text("x", tmp_path / "a.txt")
+        write_netcdf(xr.Dataset({"v": ("t", np.arange(3.0))}), tmp_path / "b.nc")
+    finally:
+        os.umask(old)
+    for name in ("a.txt", "b.nc"):
+        assert (tmp_path / name).stat().st_mode & 0o777 == 0o644, name
+    assert not list(tmp_path.glob(".*"))  # no temporary file left

@@ -18,7 +18,6 @@ import json
 import os
 import platform
 import subprocess
-import tempfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -27,6 +26,7 @@ import numpy as np
 import xarray as xr
 
 from . import __version__
+from .atomic import atomic_target as _atomic_target
 
 
 def sha256_file(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
@@ -127,9 +127,6 @@ def provenance(
     return attrs
 
 
-def _atomic_target(path: Path) -> tuple[int, str]:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
 
 
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = True) -> str:

@@ -10,11 +10,12 @@ in with the one observed, and the pipeline says so.
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import yaml
+
+from ..atomic import atomic_target
 
 HEADER = """# Registry of EXTERNAL datasets (tracked).  Each entry: the sha256 the file
 # must have, plus a description.  Where a file comes from is set in the config
@@ -47,7 +48,7 @@ def record_sha256(path: str | Path, name: str, sha256: str, note: str) -> None:
     entry = dict(data["datasets"].get(name) or {})
     entry.update({"sha256": sha256, "recorded": note})
     data["datasets"][name] = entry
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".part")
+    fd, tmp = atomic_target(path)
     with os.fdopen(fd, "w") as fh:
         fh.write(HEADER + yaml.safe_dump(data, sort_keys=True))
     os.replace(tmp, path)

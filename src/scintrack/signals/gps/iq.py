@@ -85,13 +85,13 @@ import hashlib
 import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from scipy import signal
 
+from ...atomic import atomic_target
 from ...seeding import rng_for
 from .ca_code import CHIP_RATE_HZ, CHIPS, ca_code
 from .jamming import effective_cn0_dbhz, spectral_separation
@@ -381,7 +381,7 @@ def sidecar_path(path: str | os.PathLike) -> Path:
 
 
 def _atomic_write(path: Path, payload: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = atomic_target(path, suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(payload)
