@@ -13,6 +13,7 @@ double the suite's time (issue 14) for no rule not already covered.
 from __future__ import annotations
 
 import hashlib
+import subprocess
 
 import pytest
 from conftest import REPO, SNAKEMAKE, run_snakemake, run_targets
@@ -30,8 +31,6 @@ PRODUCTS_BUILT = ("fig01", "table01")
 
 def _summary(workdir) -> dict[str, list[str]]:
     """rule -> output files of the smoke DAG in ``workdir`` (``snakemake --summary``)."""
-    import subprocess
-
     cmd = [SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--configfile", str(REPO / "config" / "smoke.yaml"), "--summary"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]

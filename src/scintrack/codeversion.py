@@ -42,7 +42,6 @@ import hashlib
 import json
 import os
 import sys
-import tempfile
 from collections.abc import Iterable
 from functools import cache
 from pathlib import Path
@@ -148,12 +147,11 @@ def _save_disk() -> None:
     if not _DISK_STATE.get("dirty") or path is None:
         return
     try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".code-cache-", suffix=".tmp")
+        from .atomic import atomic_target
+
+        fd, tmp = atomic_target(path, suffix=".tmp")
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             json.dump(_DISK, fh, sort_keys=True)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # a normal file mode (mkstemp gives 0600)
         os.replace(tmp, path)
         _DISK_STATE["dirty"] = False
     except OSError:

@@ -26,7 +26,7 @@ import numpy as np
 import xarray as xr
 
 from . import __version__
-from .atomic import atomic_target as _atomic_target
+from .atomic import atomic_target
 
 
 def sha256_file(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
@@ -140,7 +140,7 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = Tr
         for name, var in ds.data_vars.items():
             if var.dtype.kind in "fiu" and var.ndim > 0:
                 encoding[name] = {"zlib": True, "complevel": 4}
-    fd, tmp = _atomic_target(path)
+    fd, tmp = atomic_target(path)
     os.close(fd)
     try:
         ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
@@ -155,7 +155,7 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = Tr
 def write_text(text: str | bytes, path: str | os.PathLike) -> None:
     """Write text or bytes atomically (temporary file, then rename)."""
     path = Path(path)
-    fd, tmp = _atomic_target(path)
+    fd, tmp = atomic_target(path)
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(text.encode() if isinstance(text, str) else text)

@@ -243,12 +243,12 @@ def estimate_power_law(
     if starts.size == 1 and n == n_win:  # one window per row (the SAKF's refresh): one rfft over the rows, same bins
         bins = np.fft.rfft(rows, axis=-1)[:, setup.k]
         _fit_rows(setup, np.ascontiguousarray(bins.real), np.ascontiguousarray(bins.imag), t_out[:, 0], p_out[:, 0])
-        return np.array([(n_win - 1) * ts]), t_out.reshape(*lead, 1), p_out.reshape(*lead, 1)
-    for r in range(rows.shape[0]):
-        for c in range(0, starts.size, chunk):
-            sel = starts[c : c + chunk]
-            bins = np.fft.rfft(rows[r, sel[:, None] + np.arange(n_win)], axis=-1)[:, setup.k]
-            _fit_rows(setup, np.ascontiguousarray(bins.real), np.ascontiguousarray(bins.imag), t_out[r, c : c + sel.size], p_out[r, c : c + sel.size])
+    else:
+        for r in range(rows.shape[0]):
+            for c in range(0, starts.size, chunk):
+                sel = starts[c : c + chunk]
+                bins = np.fft.rfft(rows[r, sel[:, None] + np.arange(n_win)], axis=-1)[:, setup.k]
+                _fit_rows(setup, np.ascontiguousarray(bins.real), np.ascontiguousarray(bins.imag), t_out[r, c : c + sel.size], p_out[r, c : c + sel.size])
     times = (starts + n_win - 1) * ts
     return times, t_out.reshape(*lead, starts.size), p_out.reshape(*lead, starts.size)
 

@@ -117,6 +117,7 @@ import numpy as np
 from ..models.ar import ArModel, ScintillationAR, fit_ar
 from ..models.lut import TABLE_I_PHASE_ORDER, scintillation_ar
 from ..models.regions import region_of
+from ..progress import Progress
 from ..signals.correlator import noise_power
 from ..trackers.base import companion, dynamics_F, dynamics_Q
 
@@ -363,27 +364,24 @@ def gls_error_variance(cov_s: np.ndarray, *, ts: float, cn0_dbhz: float, duratio
     t = np.arange(n) * ts
     k = np.arange(int(round(steady_start_s / ts)), n, stride)
     X = np.vander(t / duration_s, 3, increasing=True)  # scaled basis: same span, better conditioned
-    if q_jerk == 0:  # C is Toeplitz: Levinson-Durbin, O(n^2) for the 3 columns of X (issue 14)
+    if q_jerk == 0:  # C = C_s + R_phi I is Toeplitz: Levinson-Durbin, O(n^2) for the 3 columns of X (issue 14)
         col = cov_s[:n].copy()
         col[0] += phase_noise_variance(cn0_dbhz, ts)
         V = np.linalg.inv(X.T @ solve_toeplitz(col, X, check_finite=False))
-        g = X[k]
-        var = np.einsum("ki,ij,kj->k", g, V, g)
-        if np.any(var <= 0):
-            raise FloatingPointError("non-positive error variance: C is too ill-conditioned")
-        return t[k], var
-    C = toeplitz(cov_s[:n])
-    C[np.diag_indices(n)] += phase_noise_variance(cn0_dbhz, ts)
-    C += _dynamics_covariance(n, ts, q_jerk)
-    try:
-        cf = cho_factor(C, lower=True, overwrite_a=True, check_finite=False)
-    except np.linalg.LinAlgError as exc:
-        raise np.linalg.LinAlgError("C = C_s (+ C_d) + R_phi I is not positive definite") from exc
-    V = np.linalg.inv(X.T @ cho_solve(cf, X, check_finite=False))
-    cd = _dynamics_cross_covariance(n, ts, q_jerk, int(k[0]), stride)
-    ci_cd = cho_solve(cf, cd, check_finite=False)
-    u = X[k].T - X.T @ ci_cd
-    var = cd[k, np.arange(k.size)] - np.sum(cd * ci_cd, axis=0) + np.einsum("ik,ij,jk->k", u, V, u)
+        var = np.einsum("ki,ij,kj->k", X[k], V, X[k])
+    else:
+        C = toeplitz(cov_s[:n])
+        C[np.diag_indices(n)] += phase_noise_variance(cn0_dbhz, ts)
+        C += _dynamics_covariance(n, ts, q_jerk)
+        try:
+            cf = cho_factor(C, lower=True, overwrite_a=True, check_finite=False)
+        except np.linalg.LinAlgError as exc:
+            raise np.linalg.LinAlgError("C = C_s + C_d + R_phi I is not positive definite") from exc
+        V = np.linalg.inv(X.T @ cho_solve(cf, X, check_finite=False))
+        cd = _dynamics_cross_covariance(n, ts, q_jerk, int(k[0]), stride)
+        ci_cd = cho_solve(cf, cd, check_finite=False)
+        u = X[k].T - X.T @ ci_cd
+        var = cd[k, np.arange(k.size)] - np.sum(cd * ci_cd, axis=0) + np.einsum("ik,ij,jk->k", u, V, u)
     if np.any(var <= 0):
         raise FloatingPointError("non-positive error variance: C is too ill-conditioned")
     return t[k], var
@@ -441,8 +439,6 @@ def floors_table(lut, scenarios: Sequence[tuple[float, float]], *, tracking: Map
     ``progress``: where to write progress lines (readings done, rate, ETA), e.g. a log's ``info``.
     """
     import xarray as xr
-
-    from ..progress import Progress
 
     cn0, amp, q = float(tracking["cn0_dbhz"]), float(tracking["amplitude"]), float(tracking["q_jerk_hz2_s3"])
     start = float(tracking["steady_state_start_s"])

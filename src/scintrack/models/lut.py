@@ -25,6 +25,7 @@ from collections.abc import Sequence
 import numpy as np
 import xarray as xr
 
+from ..progress import Progress
 from .ar import TRENDS, ArModel, ScintillationAR, fit_orders, ic_order, pacf_order, pacf_with_bound
 from .regions import region_of
 
@@ -62,8 +63,6 @@ def fit_training_set(
     chosen = np.zeros((n_t, n_r, n_c, len(CRITERIA)), dtype=np.int32)
     by_length = np.zeros((n_t, n_r, n_c, len(lengths)), dtype=np.int32)
     copy = _reusable(reuse, train, max_order, pacf_lags, alpha, lengths) if wrap_phase else None
-    from ..progress import Progress
-
     prog = Progress(n_t * n_r, unit="realisations", log=progress, label=f"AR fits S4 = {float(train['s4'].values):g}")
     for i in range(n_t):
         for j in range(n_r):

@@ -230,25 +230,26 @@ def generate_csm_profile(
     bounds.append(n_sub)
     from scipy import signal  # imported where used: keeps importing the package (DAG parsing) light
 
+    pieces = []  # (lo, hi, b, a) of every non-empty segment; LOS and diffuse scale per sub-sample
+    for seg, lo, hi in zip(segments, bounds[:-1], bounds[1:]):
+        if hi <= lo:
+            continue
+        b, a = butterworth(seg.tau0, ts_sub)
+        k = float(rice_k_from_s4(seg.s4))
+        power = 2.0 * _filter_power(b, a, seg.tau0, ts_sub)
+        los[lo:hi] = np.sqrt(k / (1.0 + k))
+        diffuse_scale[lo:hi] = np.sqrt(1.0 / ((1.0 + k) * power))
+        pieces.append((lo, hi, b, a))
     trials = list(trials)
-    out = np.empty((len(trials), n_epochs), dtype=complex)
+    z = np.empty((len(trials), n_epochs), dtype=complex)
     for r0, r1 in trial_chunks(len(trials), n_sub):  # streamed, row-wise (see trial_chunks)
         w = _white_noise(seed, name, trials[r0:r1], n_sub)
         xi = np.empty_like(w)
         zi = np.zeros((w.shape[0], 2), dtype=complex)
-        for seg, lo, hi in zip(segments, bounds[:-1], bounds[1:]):
-            if hi <= lo:
-                continue
-            b, a = butterworth(seg.tau0, ts_sub)
+        for lo, hi, b, a in pieces:  # one filter state carried across the switches
             xi[:, lo:hi], zi = signal.lfilter(b, a, w[:, lo:hi], axis=-1, zi=zi)
-            k = float(rice_k_from_s4(seg.s4))
-            power = 2.0 * _filter_power(b, a, seg.tau0, ts_sub)
-            los[lo:hi] = np.sqrt(k / (1.0 + k))
-            diffuse_scale[lo:hi] = np.sqrt(1.0 / ((1.0 + k) * power))
         del w
-        z_sub = (los + diffuse_scale * xi)[:, warmup * nspa :]
-        out[r0:r1] = _decimate(z_sub, nspa, output)
-    z = out
+        z[r0:r1] = _decimate((los + diffuse_scale * xi)[:, warmup * nspa :], nspa, output)
     t = np.arange(n_epochs) * ts
     idx = np.searchsorted(starts, t, side="right") - 1
     s4_t = np.array([segments[i].s4 for i in idx])
