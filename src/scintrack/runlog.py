@@ -1,4 +1,6 @@
-"""Logging for workflow scripts: messages and warnings go to the rule's log file."""
+"""Logging for workflow scripts: messages and warnings go to the rule's log file;
+an uncaught :class:`scintrack.errors.InputError` becomes one ``error:`` line
+(:func:`scintrack.errors.install_script_hook`)."""
 
 from __future__ import annotations
 
@@ -6,7 +8,7 @@ import logging
 import sys
 from pathlib import Path
 
-from . import profiling
+from . import errors, profiling
 
 
 def setup(log_path: str | None, name: str) -> logging.Logger:
@@ -30,4 +32,13 @@ def setup(log_path: str | None, name: str) -> logging.Logger:
     sh.setFormatter(fmt)
     sh.setLevel(logging.WARNING)
     logger.addHandler(sh)
+    errors.install_script_hook(lambda line: _to_log_file(logger, line))
     return logger
+
+
+def _to_log_file(logger: logging.Logger, line: str) -> None:
+    """``line`` as an ERROR record in the log file only (stderr gets it once, from the hook)."""
+    record = logger.makeRecord(logger.name, logging.ERROR, "", 0, line, None, None)
+    for handler in logger.handlers:
+        if isinstance(handler, logging.FileHandler):
+            handler.handle(record)

@@ -23,10 +23,11 @@ import urllib.error
 import urllib.request
 from pathlib import Path
 
+from ..errors import InputError
 from ..io import sha256_file
 
 
-class FetchError(RuntimeError):
+class FetchError(InputError):
     """A source that could not be obtained or did not verify."""
 
 

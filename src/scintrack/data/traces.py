@@ -27,10 +27,12 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..errors import InputError
+
 UNITS = {"time": ("s",), "amplitude": ("1", "", "linear"), "phase": ("rad", "radian", "radians")}
 
 
-class TraceFormatError(ValueError):
+class TraceFormatError(InputError):
     """A trace file that does not follow docs/data.md."""
 
 
