@@ -13,7 +13,6 @@
 import os
 import sys
 
-from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version
 
 min_version("9.0")
@@ -25,13 +24,23 @@ _CONFIG_YAML = os.path.join(workflow.basedir, "config", "config.yaml")
 try:  # the project's loader names the file and line of a YAML error
     load_config([_CONFIG_YAML])
 except ConfigError as _exc:
-    raise WorkflowError(str(_exc)) from None
+    sys.exit(f"error: {_exc}")
 
 
 configfile: _CONFIG_YAML
 
 
 include: "workflow/rules/common.smk"
+
+
+onstart:
+    # A job killed mid-write leaves its temporary file (never a half-written
+    # output); remove those of writers that no longer run (scintrack.atomic).
+    from scintrack.atomic import clean_stale
+
+    _removed = clean_stale(OUTPUT_ROOTS)
+    if _removed:
+        print(f"removed {len(_removed)} temporary file(s) left by an interrupted run", file=sys.stderr)
 
 
 rule all:

@@ -92,8 +92,8 @@ def test_reference_noise_removes_the_fading_bias_of_the_online_s4():
     a signal-free correlator's power is not, so the corrected S4 lands nearer the truth."""
     y, init = _csm_prompts(0.7, n=8, k=8000)
     z_s4 = 0.7
-    m2m4 = _aekf().run(y, init).extras["s4_hat"][:, 2000:].mean()
-    ref = _aekf(noise_estimate="reference").run(y, init).extras["s4_hat"][:, 2000:].mean()
+    m2m4 = np.nanmean(_aekf().run(y, init).extras["s4_hat"][:, 2000:])  # NaN: not estimable (the M2M4's fading bias makes some)
+    ref = _aekf(noise_estimate="reference").run(y, init).extras["s4_hat"][:, 2000:].mean()  # all estimable
     assert abs(ref - z_s4) < abs(m2m4 - z_s4), (m2m4, ref)
     assert abs(ref - z_s4) < 0.15
 

@@ -154,7 +154,7 @@ def test_compiled_kernel_matches_the_numpy_reference(cn0_dbhz):
     tr = MMKF(ts=T, m2m4_window=50, amplitude_q=1e-5, **kw)
     fast, ref = tr.run(y, _init(phi[:, 0], prior)), tr.reference(y, _init(phi[:, 0], prior))
     np.testing.assert_allclose(fast.theta_d, ref.theta_d, rtol=1e-10, atol=1e-9)
-    assert set(fast.extras) == set(ref.extras) == {"frequency_hz", "amplitude", "p_plus", "log_odds", "cn0_dbhz"}
+    assert set(fast.extras) == set(ref.extras) == {"frequency_hz", "amplitude", "p_plus", "log_odds", "cn0_dbhz", "cov_fail_epoch"}
     for key in fast.extras:
         np.testing.assert_allclose(fast.extras[key], ref.extras[key], rtol=1e-9, atol=1e-9, err_msg=key)
     assert abs(np.median(fast.extras["cn0_dbhz"][:, 100:]) - cn0_dbhz) < 1.5  # A^2 / (2 sigma_v^2 T)

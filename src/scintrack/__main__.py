@@ -31,13 +31,13 @@ def main(argv: list[str] | None = None) -> int:
 
         for name in args.files:
             if not Path(name).exists() and Path(name).suffix not in (".yaml", ".yml", ".json"):
-                print(f"config file {name} not found: Snakemake reads every word after --configfile as a config file; "
+                print(f"error: config file {name} not found: Snakemake reads every word after --configfile as a config file; "
                       f"if {name!r} is a target, put it before --configfile", file=sys.stderr)
                 return 2
         try:
             load_config(args.files)
         except ConfigError as exc:
-            print(exc, file=sys.stderr)
+            print(f"error: {exc}", file=sys.stderr)
             return 2
         return 0
     from .archive.verify import verify

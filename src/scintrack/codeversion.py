@@ -147,12 +147,9 @@ def _save_disk() -> None:
     if not _DISK_STATE.get("dirty") or path is None:
         return
     try:
-        from .atomic import atomic_target
+        from .atomic import atomic_bytes
 
-        fd, tmp = atomic_target(path, suffix=".tmp")
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(_DISK, fh, sort_keys=True)
-        os.replace(tmp, path)
+        atomic_bytes(path, json.dumps(_DISK, sort_keys=True))
         _DISK_STATE["dirty"] = False
     except OSError:
         pass  # no cache written: the next run parses again

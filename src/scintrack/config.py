@@ -8,7 +8,9 @@ first violation into one line that names the key and the fix.
 from __future__ import annotations
 
 import copy
-from collections.abc import Iterable, Mapping
+import math
+import re
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -38,9 +40,15 @@ def load_config(paths: Iterable[str | Path]) -> dict[str, Any]:
     for path in paths:
         path = Path(path)
         try:
-            data = yaml.safe_load(path.read_text()) or {}
+            data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
         except FileNotFoundError:
             raise ConfigError(f"config file {path} not found; pass an existing --configfile") from None
+        except UnicodeDecodeError as exc:
+            raise ConfigError(f"config file {path} is not UTF-8 text (byte {exc.start}); save it as UTF-8 YAML") from None
+        except RecursionError:
+            raise ConfigError(f"config file {path} nests too deeply to be a config; fix its syntax there") from None
+        except OSError as exc:
+            raise ConfigError(f"config file {path} cannot be read ({exc.strerror or exc}); pass a readable --configfile") from None
         except yaml.YAMLError as exc:
             mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
             where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark is not None else str(path)
@@ -86,11 +94,80 @@ def _key_path(error) -> str:
 
 
 def format_validation_error(error, source: str = "config/config.yaml") -> str:
-    """One line naming the offending key, the rule it breaks and the fix."""
-    description = error.schema.get("description") if isinstance(error.schema, Mapping) else None
+    """One line naming the offending key, the rule it breaks and the fix.
+
+    An unknown key (``additionalProperties``) is named itself, with the keys
+    allowed there, so the line points at the typo rather than at its parent.
+    """
+    key = _key_path(error)
+    schema = error.schema if isinstance(error.schema, Mapping) else {}
+    if error.validator == "additionalProperties" and isinstance(error.instance, Mapping):
+        allowed = list(schema.get("properties", {}))
+        unknown = [k for k in error.instance if k not in allowed]
+        if unknown and not schema.get("patternProperties"):
+            name = str(unknown[0])
+            key = name if key == "<top level>" else f"{key}.{name}"
+            shown = ", ".join(allowed[:12]) + (", ..." if len(allowed) > 12 else "")
+            return f"invalid config value at '{key}': unknown key {name!r} (allowed here: {shown}); remove or rename it in {source}"
+    description = schema.get("description")
     hint = f" ({description})" if description else ""
-    message = error.message.splitlines()[0]
-    return f"invalid config value at '{_key_path(error)}': {message}{hint}; fix it in {source} or your --configfile/--config overlay"
+    message = " ".join(error.message.split())
+    return f"invalid config value at '{key}': {message}{hint}; fix it in {source} or your --configfile/--config overlay"
+
+
+# Placeholder for "the file to fix" while validating; :func:`locate` replaces it
+# by the config layer that actually sets the offending key.
+SOURCE = "\x00config source\x00"
+
+
+def _has_path(data: Any, path: str) -> int:
+    """How many characters of the key path ``path`` (``a.b[0].c``) ``data`` holds (keys may contain dots)."""
+    done = 0
+    while path:
+        if path.startswith("["):
+            end = path.find("]")
+            try:
+                index = int(path[1:end])
+            except ValueError:
+                return done
+            if not isinstance(data, list) or not -len(data) <= index < len(data):
+                return done
+            data, step = data[index], end + 1
+        else:
+            if not isinstance(data, Mapping):
+                return done
+            keys = [k for k in map(str, data) if path == k or path.startswith(k + ".") or path.startswith(k + "[")]
+            if not keys:
+                return done
+            key = max(keys, key=len)
+            data = next(v for k, v in data.items() if str(k) == key)
+            step = len(key)
+        done += step
+        path = path[step:]
+        if path.startswith("."):
+            path, done = path[1:], done + 1
+    return done
+
+
+def source_of(key: str, layers: Sequence[tuple[str, Mapping[str, Any]]]) -> str:
+    """The layer (``(name, mapping)`` in merge order, last wins) that sets ``key``, else the one holding most of its path."""
+    if not layers:
+        return "config/config.yaml"
+    depth = [(_has_path(data, key), i) for i, (_, data) in enumerate(layers)]
+    full = [i for d, i in depth if d == len(key)]
+    if full and key:
+        return layers[full[-1]][0]
+    best = max(depth, key=lambda t: (t[0], t[1]))
+    return layers[best[1]][0] if best[0] > 0 else layers[0][0]
+
+
+def locate(message: str, layers: Sequence[tuple[str, Mapping[str, Any]]]) -> str:
+    """``message`` with :data:`SOURCE` replaced by the layer that sets the key it names (``at 'key'``)."""
+    match = re.search(r"at '([^']*)'", message)
+    key = match.group(1) if match else ""
+    where = source_of("" if key == "<top level>" else key, layers)
+    message = message.replace(f"{SOURCE} or your --configfile/--config overlay", where).replace(SOURCE, where)
+    return message
 
 
 def validate_config(config: Mapping[str, Any], schema_path: str | Path, source: str = "config/config.yaml") -> None:
@@ -109,6 +186,7 @@ def check_consistency(config: Mapping[str, Any], source: str = "config/config.ya
     """Rules the schema cannot express (references between keys)."""
     from .trackers.registry import validate_specs
 
+    _check_finite(config, "", source)
     validate_specs(config["trackers"], source)
     grid_s4 = set(config["ar_training"]["s4"])
     grid_tau0 = set(config["ar_training"]["tau0"])
@@ -144,6 +222,20 @@ def check_consistency(config: Mapping[str, Any], source: str = "config/config.ya
             f"invalid config value at 'ar_training.duration_s': {n_epochs:.0f} epochs are too few to fit "
             f"AR({max_order}) and a {config['ar_models']['pacf_lags']}-lag PACF; lengthen it in {source}"
         )
+    from .validity import check_model_ranges  # S4 the generators realise; AR look-ups on the grid (scintrack.validity)
+    check_model_ranges(config, source)
+
+
+def _check_finite(value: Any, key: str, source: str) -> None:
+    """No NaN or infinity anywhere (JSON Schema bounds do not catch them: NaN compares false with every bound)."""
+    if isinstance(value, Mapping):
+        for k, v in value.items():
+            _check_finite(v, f"{key}.{k}" if key else str(k), source)
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _check_finite(v, f"{key}[{i}]", source)
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"invalid config value at '{key}': {value} is not a finite number; give a finite value in {source}")
 
 
 def _check_trace_scenarios(config: Mapping[str, Any], source: str) -> None:
@@ -187,6 +279,13 @@ def _check_experiments(config: Mapping[str, Any], source: str) -> None:
         for tr in exp["trackers"]:
             if tr not in trackers:
                 raise ConfigError(f"invalid config value at 'experiments.{name}.trackers': {tr!r} is not defined under 'trackers'; add it in {source}")
+            if trackers[tr].get("design") == "trace":  # its AR models are fitted on the scenario's trace
+                csm = [sc for sc in exp["scenarios"] if "trace" not in scenarios.get(sc, {})]
+                if csm:
+                    raise ConfigError(
+                        f"invalid config value at 'experiments.{name}.trackers': {tr!r} has design: trace (AR models fitted on a recorded "
+                        f"trace) but scenario {csm[0]!r} has no trace (scintillation_model: trace); use a design: scenario tracker there "
+                        f"or a trace scenario, in {source}")
         if exp["shards"] > exp["trials"]:
             raise ConfigError(f"invalid config value at 'experiments.{name}.shards': more shards ({exp['shards']}) than trials ({exp['trials']}); fix it in {source}")
 

@@ -12,36 +12,54 @@ from snakemake.utils import update_config, validate
 sys.path.insert(0, str(Path(workflow.basedir) / "src"))
 
 from scintrack.codeversion import code_version
-from scintrack.config import ConfigError, check_consistency, format_validation_error, typed_overrides
+from scintrack.config import SOURCE, ConfigError, check_consistency, format_validation_error, load_config, locate, typed_overrides
 from scintrack.data.registry import expected_sha256
+from scintrack.errors import PREFIX, InputError, one_line
 from scintrack.pipeline import params as P
 from scintrack.pipeline import paths
 from scintrack.products import PAPERS, products
 
+
+def fail(message):
+    """Stop with one ``error:`` line (no traceback): a mistake in the user's input."""
+    sys.exit(PREFIX + one_line(message))
+
+
 # --config values arrive as strings inside nested mappings ('15.0'); give them
 # the types they would have in a YAML config file, then validate everything.
-update_config(config, typed_overrides(workflow.config_settings.config))
+_OVERRIDES = typed_overrides(workflow.config_settings.config)
+update_config(config, _OVERRIDES)
+
+
+def _config_layers():
+    """(name, mapping) of every config layer in merge order, to name the one that sets a bad key."""
+    layers = [("config/config.yaml", load_config([Path(workflow.basedir) / "config" / "config.yaml"]))]
+    for path in workflow.config_settings.configfiles:
+        layers.append((str(path), load_config([path])))
+    if _OVERRIDES:
+        layers.append(("your --config option", _OVERRIDES))
+    return layers
 
 
 def _validate_config():
     try:
         validate(config, "../schemas/config.schema.yaml")
-        check_consistency(config)
+        check_consistency(config, SOURCE)
     except WorkflowError as exc:
         # snakemake.utils.validate raises WorkflowError from inside the
         # handler of the jsonschema ValidationError, which is its context.
         cause = exc.__cause__ or exc.__context__
-        cause = cause if hasattr(cause, "absolute_path") else None
-        if cause is None:
+        if not hasattr(cause, "absolute_path"):
             raise
-        raise WorkflowError(format_validation_error(cause)) from None
+        fail(locate(format_validation_error(cause, SOURCE), _config_layers()))
     except ConfigError as exc:
-        raise WorkflowError(str(exc)) from None
+        fail(locate(str(exc), _config_layers()))
 
 
 _validate_config()
 
 SCRIPTS = Path(workflow.basedir) / "workflow" / "scripts"
+OUTPUT_ROOTS = ["data", "results", "figures", "tables", "archive", "logs"]  # where the pipeline writes
 
 
 def code(script, *modules):
@@ -66,6 +84,10 @@ def repo_path(path):
 
 
 REGISTRY = repo_path(RT["registry"])
+try:  # read while the DAG is built (checksums in ensure()): a broken registry is one line here
+    expected_sha256(REGISTRY, "")
+except InputError as exc:
+    fail(exc)
 
 
 def registry_name(event):
@@ -76,7 +98,7 @@ def raw_trace_path(event):
     try:
         return paths.raw_trace_path(config, event)
     except ValueError as exc:
-        raise WorkflowError(str(exc)) from None
+        fail(exc)
 
 
 TRACE_FILES = {e: paths.trace_path(config, e) for e in RT["events"]}
@@ -101,7 +123,7 @@ def experiment_params(wc):
     try:
         return P.experiment(config, wc.experiment, wc.scenario)
     except KeyError as exc:
-        raise WorkflowError(str(exc).strip("'\"")) from None
+        fail(str(exc).strip("'\""))
 
 
 def shard_inputs(wc):
@@ -110,7 +132,7 @@ def shard_inputs(wc):
     try:
         trace = paths.scenario_trace_path(config, wc.scenario)
     except KeyError as exc:
-        raise WorkflowError(str(exc).strip("'\"")) from None
+        fail(str(exc).strip("'\""))
     if trace:
         out["trace"] = trace
     return out

@@ -3,6 +3,10 @@
 # IQ recording, and the results behind the dataset's figures.
 
 GJ = config["gps_jamming"]
+EPHEMERIDES = repo_path(GJ["ephemerides"])
+if not Path(EPHEMERIDES).is_file():  # an input from outside the pipeline: say so in one line, not as a missing-input report
+    fail(f"gps_jamming.ephemerides: RINEX navigation file {GJ['ephemerides']} not found; restore it (git checkout data/ephemerides) "
+         "or point the setting at an existing file")
 GPS_DATASET = paths.gps_dataset_path(config)
 GPS_IQ = paths.gps_iq_paths(config)
 
@@ -10,7 +14,7 @@ GPS_IQ = paths.gps_iq_paths(config)
 rule gps_jamming_dataset:
     """Truth of the jammed GPS scenario: geometry from real ephemerides, clock, LNAV message, C/N0 profile."""
     input:
-        ephemerides=repo_path(GJ["ephemerides"]),
+        ephemerides=EPHEMERIDES,
     output:
         ensure(GPS_DATASET, non_empty=True),
     params:
@@ -95,7 +99,7 @@ rule zhao_channel:
     """One satellite channel over all Monte Carlo trials: PLL, MM filter per bit-prior strategy, DLL."""
     input:
         dataset=GPS_DATASET,
-        ephemerides=repo_path(GJ["ephemerides"]),
+        ephemerides=EPHEMERIDES,
     output:
         ensure(paths.zhao_channel("{prn}"), non_empty=True),
     params:
@@ -137,7 +141,7 @@ rule zhao_cn0_sweep_point:
     """Every channel with the jammed C/N0 set to one value of the sweep (where each variant breaks)."""
     input:
         dataset=GPS_DATASET,
-        ephemerides=repo_path(GJ["ephemerides"]),
+        ephemerides=EPHEMERIDES,
     output:
         ensure(paths.zhao_sweep_point("{cn0}"), non_empty=True),
     params:

@@ -8,6 +8,7 @@ from scintrack import runlog
 from scintrack.archive.build import ArchiveRefused, check_results_config, check_tree, collect_members, finish
 from scintrack.archive.metadata import benchmark_timings
 from scintrack.archive.tarball import write_tarball
+from scintrack.errors import InputError
 from scintrack.io import git_state
 
 sm = snakemake  # noqa: F821
@@ -18,8 +19,7 @@ try:
     check_tree(git, bool(sm.params.allow_dirty), [sm.input.figure_sums, sm.input.table_sums])
     check_results_config(cfg, sm.input.results)
 except ArchiveRefused as exc:
-    log.error("%s", exc)
-    sys.exit(str(exc))
+    raise InputError(str(exc)) from None
 outputs = [*sm.input.figures, *sm.input.tables, *sm.input.compare, sm.input.manifest, sm.input.figure_sums, sm.input.table_sums]
 extra = {"environment.lock": sm.input.lock, "registry/registry.yaml": sm.input.registry}
 members, manifest = collect_members(outputs=outputs, results=sm.input.results, extra=extra, max_result_mb=float(sm.params.max_result_mb))

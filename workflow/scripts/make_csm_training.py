@@ -2,6 +2,7 @@
 
 from scintrack import runlog
 from scintrack.data.synthetic import csm_training_dataset, csm_training_version
+from scintrack.errors import InputError
 from scintrack.io import provenance, write_netcdf
 
 sm = snakemake  # noqa: F821 (injected by Snakemake)
@@ -9,7 +10,7 @@ log = runlog.setup(sm.log[0], "csm_training_set")
 params = dict(sm.params.dataset)
 version = csm_training_version(params)
 if version != sm.wildcards.version:
-    raise SystemExit(
+    raise InputError(
         f"{sm.output[0]}: the config gives version {version} for S4={params['s4']:g}; "
         "request that path (old versions are kept but never regenerated with new parameters)"
     )

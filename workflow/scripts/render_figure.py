@@ -7,7 +7,8 @@ extra arguments.
 """
 
 from scintrack import runlog
-from scintrack.figures.common import save_figure
+from scintrack.experiments.guards import divergence_note
+from scintrack.figures.common import add_footer, save_figure
 from scintrack.io import open_dataset
 from scintrack.products import get
 
@@ -16,5 +17,6 @@ product = get(sm.params.product, sm.params.module)
 log = runlog.setup(sm.log[0], product.name)
 datasets = {name: open_dataset(path) for name, path in sm.input.items()}
 fig = product.function(*datasets.values(), **dict(sm.params.kwargs))
+add_footer(fig, divergence_note(datasets.values()))  # diverged trials / non-estimable S4 of the tracking results read (guards)
 written = save_figure(fig, [sm.output.pdf, sm.output.png])
 log.info("rendered %s", ", ".join(map(str, written)))

@@ -6,18 +6,21 @@ The function (found through :mod:`scintrack.products`) returns
 """
 
 from scintrack import runlog
+from scintrack.experiments.guards import divergence_note
 from scintrack.io import open_dataset
 from scintrack.products import get
-from scintrack.tables.common import write_table
+from scintrack.tables.common import join_notes, write_table
 
 sm = snakemake  # noqa: F821
 product = get(sm.params.product, sm.params.module)
 log = runlog.setup(sm.log[0], product.name)
-tables = product.function(*(open_dataset(path) for path in sm.input))
+inputs = [open_dataset(path) for path in sm.input]
+tables = product.function(*inputs)
+guard_note = divergence_note(inputs)  # diverged trials / non-estimable S4 of the tracking results read (guards)
 missing = {k for k in sm.output.keys()} - {f"{s}_{e}" for s in tables for e in ("csv", "md")}
 if missing:
-    raise SystemExit(f"{product.name}: the table function did not produce {sorted(missing)}")
+    raise RuntimeError(f"{product.name}: the table function did not produce {sorted(missing)}")
 written = []
 for stem, (frame, title, note) in tables.items():
-    written += write_table(frame, sm.output[f"{stem}_csv"], sm.output[f"{stem}_md"], title=title, note=note)
+    written += write_table(frame, sm.output[f"{stem}_csv"], sm.output[f"{stem}_md"], title=title, note=join_notes(note, guard_note))
 log.info("wrote %s", ", ".join(map(str, written)))

@@ -14,7 +14,8 @@ import io
 import os
 import tarfile
 from collections.abc import Mapping
-from pathlib import Path
+
+from ..atomic import atomic_bytes
 
 MTIME = 946684800  # 2000-01-01T00:00:00Z
 SUMS = "SHA256SUMS"
@@ -55,11 +56,7 @@ def write_tarball(members: Mapping[str, bytes], path: str | os.PathLike, root: s
     with gzip.GzipFile(filename="", mode="wb", fileobj=raw, mtime=0, compresslevel=9) as gz:
         gz.write(buf.getvalue())
     data = raw.getvalue()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.part")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)
+    atomic_bytes(path, data)
     return sha256_bytes(data)
 
 

@@ -49,14 +49,20 @@ def _http_fetch(url: str, part: Path, timeout: float) -> None:
         raise FetchError(f"{url}: HTTP {exc.code} {exc.reason}; check real_traces.sources in the config") from None
     except (urllib.error.URLError, OSError, TimeoutError) as exc:
         reason = getattr(exc, "reason", exc)
-        raise FetchError(f"{url}: transfer failed ({reason}); partial data kept in {part} and resumed on retry") from None
+        kept = part.stat().st_size if part.exists() else 0
+        if kept:
+            raise FetchError(f"{url}: transfer failed ({reason}); partial data ({kept} bytes) kept in {part} and resumed on retry") from None
+        part.unlink(missing_ok=True)
+        raise FetchError(f"{url}: unreachable ({reason}), nothing was downloaded; check the URL in real_traces.sources and the network, "
+                         "or give a local 'path'") from None
     size = part.stat().st_size
     if expected is not None and size < expected:
         raise FetchError(f"{url}: transfer truncated ({size} of {expected} bytes); partial data kept in {part} and resumed on retry")
 
 
-def fetch(source: dict, final: str | Path, expected_sha256: str | None, *, trust_on_first_use: bool = False, timeout: float = 60.0) -> str:
-    """Obtain ``source`` ({url: ...} or {path: ...}) at ``final``; return its sha256."""
+def fetch(source: dict, final: str | Path, expected_sha256: str | None, *, trust_on_first_use: bool = False, timeout: float = 60.0,
+          registry: str | Path = "data/registry.yaml") -> str:
+    """Obtain ``source`` ({url: ...} or {path: ...}) at ``final``; return its sha256 (``registry``: named in the error when it has none)."""
     final = Path(final)
     final.parent.mkdir(parents=True, exist_ok=True)
     part = final.with_name(final.name + ".part")
@@ -78,7 +84,7 @@ def fetch(source: dict, final: str | Path, expected_sha256: str | None, *, trust
         if not trust_on_first_use:
             part.unlink()
             raise FetchError(
-                f"{final.name}: no sha256 in the registry; add it to data/registry.yaml, or set real_traces.trust_on_first_use: true to record {actual}"
+                f"{final.name}: no sha256 in the registry; add it to {registry}, or set real_traces.trust_on_first_use: true to record {actual}"
             )
     elif actual != expected_sha256.lower():
         aside = final.with_name(f"{final.name}.rejected-{actual[:12]}")
@@ -91,4 +97,11 @@ def fetch(source: dict, final: str | Path, expected_sha256: str | None, *, trust
 def _copy_local(src: Path, part: Path) -> None:
     if not src.is_file():
         raise FetchError(f"{src}: no such file; check real_traces.sources in the config")
-    shutil.copyfile(src, part)
+    try:
+        shutil.copyfile(src, part)
+    except OSError as exc:
+        part.unlink(missing_ok=True)
+        side = "read" if not os.access(src, os.R_OK) else "write"
+        where = src if side == "read" else part
+        raise FetchError(f"{where}: could not {side} it ({exc.strerror or exc}); "
+                         + ("fix its permissions" if side == "read" else f"free disk space or make {part.parent} writable, then rerun")) from None

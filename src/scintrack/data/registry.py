@@ -9,13 +9,14 @@ in with the one observed, and the pipeline says so.
 
 from __future__ import annotations
 
-import os
+import re
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from ..atomic import atomic_target
+from ..atomic import atomic_bytes
+from ..errors import InputError
 
 HEADER = """# Registry of EXTERNAL datasets (tracked).  Each entry: the sha256 the file
 # must have, plus a description.  Where a file comes from is set in the config
@@ -24,14 +25,30 @@ HEADER = """# Registry of EXTERNAL datasets (tracked).  Each entry: the sha256 t
 """
 
 
+class RegistryError(InputError):
+    """The registry file is not valid YAML or does not follow the layout above."""
+
+
 def read_registry(path: str | Path) -> dict[str, Any]:
+    """The registry at ``path`` ({"datasets": {}} if the file does not exist yet, e.g. before trust on first use)."""
     path = Path(path)
     if not path.exists():
         return {"datasets": {}}
-    data = yaml.safe_load(path.read_text()) or {}
-    if not isinstance(data.get("datasets", {}), dict):
-        raise ValueError(f"{path}: 'datasets' must be a mapping of name -> entry")
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
+        raise RegistryError(f"{where}: the dataset registry is not valid YAML; fix its syntax (layout in docs/data.md)") from None
+    if not isinstance(data, dict) or not isinstance(data.get("datasets", {}), dict):
+        raise RegistryError(f"{path}: 'datasets' must be a mapping of name -> entry (docs/data.md); fix the file")
     data.setdefault("datasets", {})
+    for name, entry in data["datasets"].items():
+        sha = (entry or {}).get("sha256") if isinstance(entry, dict) or entry is None else None
+        if not (isinstance(entry, dict) or entry is None):
+            raise RegistryError(f"{path}: entry {name!r} must be a mapping with a 'sha256' key; fix the file")
+        if sha and not re.fullmatch(r"[0-9a-fA-F]{64}", str(sha)):
+            raise RegistryError(f"{path}: datasets.{name}.sha256 is not 64 hex digits ({str(sha)[:20]!r}); put the file's sha256 there")
     return data
 
 
@@ -48,7 +65,4 @@ def record_sha256(path: str | Path, name: str, sha256: str, note: str) -> None:
     entry = dict(data["datasets"].get(name) or {})
     entry.update({"sha256": sha256, "recorded": note})
     data["datasets"][name] = entry
-    fd, tmp = atomic_target(path)
-    with os.fdopen(fd, "w") as fh:
-        fh.write(HEADER + yaml.safe_dump(data, sort_keys=True))
-    os.replace(tmp, path)
+    atomic_bytes(path, HEADER + yaml.safe_dump(data, sort_keys=True))

@@ -27,13 +27,61 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..errors import InputError
+from ..errors import InputError, one_line
 
 UNITS = {"time": ("s",), "amplitude": ("1", "", "linear"), "phase": ("rad", "radian", "radians")}
 
 
 class TraceFormatError(InputError):
     """A trace file that does not follow docs/data.md."""
+
+
+#: MAT-file v5 data types (miINT8 .. miUTF32; 8, 10 and 11 are reserved)
+_MAT5_TYPES = frozenset({1, 2, 3, 4, 5, 6, 7, 9, 12, 13, 14, 15, 16, 17, 18})
+_MAT5_MATRIX, _MAT5_COMPRESSED, _MAT5_MAX_DEPTH = 14, 15, 32
+
+
+def _check_mat5(path: Path) -> None:
+    """Refuse a MAT v5 file whose data elements have unknown types or overrun their parent.
+
+    scipy 1.17's ``loadmat`` indexes a C table by the element type and
+    segfaults on a corrupt type code (found by tests/test_fuzz.py), so the tag
+    structure is walked here first (v4 and v7.3 files are left to ``loadmat``).
+    """
+    import zlib
+
+    data = path.read_bytes()
+    if len(data) < 128 or 0 in data[:4] or data[126:128] not in (b"IM", b"MI"):
+        return
+    order = "<" if data[126:128] == b"IM" else ">"
+    if int.from_bytes(data[124:126], "little" if order == "<" else "big") != 0x0100:
+        return
+
+    def walk(buf: bytes, start: int, end: int, depth: int, top: bool) -> None:
+        if depth > _MAT5_MAX_DEPTH:
+            raise TraceFormatError(f"{path}: MAT-file elements nested deeper than {_MAT5_MAX_DEPTH}; the file is corrupt, re-export it")
+        off = start
+        while off < end:
+            if off + 8 > end:
+                raise TraceFormatError(f"{path}: MAT-file element tag truncated at byte {off}; the file is incomplete, re-export it")
+            mdtype, nbytes = np.frombuffer(buf, dtype=f"{order}u4", count=2, offset=off).tolist()
+            if mdtype >> 16:  # small data element: type and size in the first 4 bytes, data in the next 4
+                mdtype, nbytes, size = mdtype & 0xFFFF, mdtype >> 16, 8
+            else:
+                size = 8 + nbytes + (0 if top else -nbytes % 8)
+            if mdtype not in _MAT5_TYPES or (size == 8 and nbytes > 4) or off + min(size, 8 + nbytes) > end:
+                raise TraceFormatError(f"{path}: MAT-file element at byte {off} is corrupt (type {mdtype}, {nbytes} bytes); re-export the file")
+            if mdtype == _MAT5_MATRIX:
+                walk(buf, off + 8, off + 8 + nbytes, depth + 1, False)
+            elif mdtype == _MAT5_COMPRESSED:
+                try:
+                    inner = zlib.decompress(buf[off + 8 : off + 8 + nbytes])
+                except zlib.error as exc:
+                    raise TraceFormatError(f"{path}: MAT-file compressed element at byte {off} is corrupt ({exc}); re-export the file") from None
+                walk(inner, 0, len(inner), depth + 1, True)
+            off += size
+
+    walk(data, 128, len(data), 0, True)
 
 
 def _read_container(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str]]:
@@ -48,6 +96,7 @@ def _read_container(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str]]:
         elif suffix == ".mat":
             from scipy.io import loadmat
 
+            _check_mat5(path)  # scipy's loadmat crashes the interpreter on some malformed files
             arrays = {k: np.asarray(v) for k, v in loadmat(path).items() if not k.startswith("__")}
         elif suffix == ".npz":
             with np.load(path) as z:
@@ -62,7 +111,7 @@ def _read_container(path: Path) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     except TraceFormatError:
         raise
     except Exception as exc:  # a corrupt container: say which file
-        raise TraceFormatError(f"{path}: cannot be read as {suffix} ({type(exc).__name__}: {exc}); check the file is complete") from None
+        raise TraceFormatError(f"{path}: cannot be read as {suffix} ({type(exc).__name__}: {one_line(exc)}); check the file is complete") from None
     return arrays, units
 
 
@@ -98,7 +147,7 @@ def load_trace(path: str | Path, bands: Sequence[str], ts: float, *, event: str,
     step = np.diff(time)
     if np.any(step <= 0):
         bad = int(np.flatnonzero(step <= 0)[0])
-        raise TraceFormatError(f"{path}: 'time' is not strictly increasing at index {bad + 1} ({time[bad]!r} -> {time[bad + 1]!r}); sort it and drop duplicates")
+        raise TraceFormatError(f"{path}: 'time' is not strictly increasing at index {bad + 1} ({float(time[bad]):.6g} s -> {float(time[bad + 1]):.6g} s); sort it and drop duplicates")
     if np.max(np.abs(step - ts)) > 0.01 * ts:
         raise TraceFormatError(
             f"{path}: 'time' step is {np.median(step):g} (range {step.min():g}..{step.max():g}), expected sampling.ts = {ts:g} s; "
@@ -115,7 +164,8 @@ def load_trace(path: str | Path, bands: Sequence[str], ts: float, *, event: str,
                 raise TraceFormatError(f"{path}: {name!r} has {v.size} samples but 'time' has {time.size}; all arrays must have the same length")
         if np.any(a < 0):
             raise TraceFormatError(f"{path}: {a_name!r} has negative values: is it in dB? Give the linear amplitude (10**(dB/20))")
-        power = float(np.mean(a**2))
+        with np.errstate(over="ignore"):  # a huge amplitude gives power inf, refused below
+            power = float(np.mean(a**2))
         if not 0.5 <= power <= 2.0:
             raise TraceFormatError(f"{path}: {a_name!r} has mean power {power:.3g}; normalise the amplitude to unit mean power (divide by its rms)")
         jumps = np.abs(np.diff(p))

@@ -32,6 +32,21 @@ scenarios).  This is the estimator the AEKF-AR uses to adapt (Vila-Valls
 are the numba blocks :func:`scintrack.trackers.blocks.s4_corrected` and
 :func:`~scintrack.trackers.blocks.window_variance`; the functions here are
 their array forms.
+
+Not estimable.  When the signal power is not resolvable (``S = E[I] - s2 <=
+0.1 s2``) or the estimate is absurd (NaN, or ``S4 >= 2``), the noise-corrected
+S4 is NaN, "not estimable" (the bounds and why:
+:func:`scintrack.trackers.blocks.s4_corrected`, constants
+``blocks.S4_SIGNAL_FRACTION`` and ``blocks.S4_ESTIMABLE_MAX``), never a
+number: before, the floor ``S >= 1e-12`` turned an unresolvable signal into
+S4 up to 2.7e12 (C/N0 = 10 dB-Hz).  So :func:`s4_corrected`,
+:func:`s4_batch`, :func:`detrended_s4` and :class:`StreamingS4` may return
+NaN; a caller that aggregates them must use the NaN-aware reductions and say
+what fraction was estimable (:func:`estimable_fraction`).  :func:`s4_index`
+(no noise: ``s2 = 0``) is NaN only for an S4 >= 2; :func:`window_s4` is the
+plain ``std / mean``.  :class:`StreamingS4` keeps, per trial, the last
+estimable value (``held``; the prior until the first), which is what the
+AEKF-AR's adaptation uses, so a NaN never selects an AR set.
 """
 
 from __future__ import annotations
@@ -43,12 +58,12 @@ from .window import SlidingSums
 
 
 def s4_corrected(mean_i: np.ndarray, var_i: np.ndarray, noise_power: np.ndarray | float) -> np.ndarray:
-    """Noise-corrected S4 from the intensity mean and variance (:func:`.blocks.s4_corrected`)."""
+    """Noise-corrected S4 from the intensity mean and variance (:func:`.blocks.s4_corrected`); NaN: not estimable."""
     return blocks.s4_corrected_ufunc(np.asarray(mean_i, dtype=float), np.asarray(var_i, dtype=float), np.asarray(noise_power, dtype=float))
 
 
 def s4_batch(prompts: np.ndarray, noise_power: float | np.ndarray, axis: int = -1) -> np.ndarray:
-    """Noise-corrected S4 of prompts along ``axis`` (``noise_power = 0``: no correction)."""
+    """Noise-corrected S4 of prompts along ``axis`` (``noise_power = 0``: no correction); NaN: not estimable."""
     intensity = np.abs(prompts) ** 2
     return s4_corrected(intensity.mean(axis=axis), intensity.var(axis=axis), np.asarray(noise_power))
 
@@ -68,13 +83,24 @@ def window_s4(intensity: np.ndarray, per_window: int) -> np.ndarray:
     return blocks_.std(axis=1) / blocks_.mean(axis=1)
 
 
+def estimable_fraction(s4: np.ndarray, axis=None) -> np.ndarray:
+    """Fraction of the S4 estimates that are estimable (not NaN), over ``axis``."""
+    return np.mean(~np.isnan(np.asarray(s4, dtype=float)), axis=axis)
+
+
 class StreamingS4:
-    """Noise-corrected S4 over the last ``window`` prompts, per trial."""
+    """Noise-corrected S4 over the last ``window`` prompts, per trial.
+
+    :meth:`update` returns the estimate (the prior before ``min_epochs``;
+    NaN when not estimable); ``held`` is, per trial, the last estimable one
+    (the prior until the first), what an adaptive tracker acts on.
+    """
 
     def __init__(self, n_trials: int, window: int, *, prior: float = 0.0, min_epochs: int | None = None):
         self.sums = SlidingSums(n_trials, 2, window)
         self.min_epochs = min_epochs if min_epochs is not None else window
         self.prior = np.full(n_trials, float(prior))
+        self.held = self.prior.copy()
 
     def update(self, prompt: np.ndarray, noise_power: np.ndarray) -> np.ndarray:
         i = np.abs(prompt) ** 2
@@ -83,7 +109,9 @@ class StreamingS4:
             return self.prior
         mean = sums[:, 0] / count
         var = blocks.window_variance_ufunc(sums[:, 0], sums[:, 1], float(count))
-        return s4_corrected(mean, var, noise_power)
+        est = s4_corrected(mean, var, noise_power)
+        self.held = np.where(np.isnan(est), self.held, est)
+        return est
 
 
 def detrended_s4(
@@ -103,7 +131,8 @@ def detrended_s4(
     trend scales signal and noise alike, so the noise power of ``I_det`` is
     ``s2 / trend``, taken as its mean over the window (the trend is nearly
     constant within one).  ``noise_power = 0`` is the uncorrected
-    ``std / mean``.
+    ``std / mean``.  A window whose corrected S4 is not estimable is NaN
+    (see the module docstring).
     """
     from scipy import signal  # imported where used: keeps importing the package (DAG parsing) light
 

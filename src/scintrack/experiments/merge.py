@@ -1,5 +1,9 @@
 """Exact merge of Monte Carlo shards (:mod:`.runner`) into one result with its statistics.
 
+Per-trial variables (including the guard's ``diverged_epoch`` and
+``divergence_reason``) are concatenated over trials; per-time sums are added;
+the on-line S4 mean is weighted by estimable trial-epochs (:func:`_s4_mean`).
+
 Kept apart from the runner so that a merge job imports xarray and numpy only
 (no tracker, no numba): with ~70 merges in the full DAG, the import time of
 each job counts (issue 14).
@@ -15,6 +19,23 @@ import xarray as xr
 from .metrics import rmse_with_ci, steady_rmse
 
 MONITORS = ("phi3", "p", "weight", "T")  # on-line SAKF quantities averaged over trials (T: median)
+
+
+def _s4_mean(shards: Sequence[xr.Dataset], n: int) -> xr.DataArray:
+    """Trial-weighted mean of the shards' ``s4_hat_mean``; where a shard had non-estimable epochs
+    (``s4_hat_estimable`` < 1) each shard is weighted by its estimable trial-epochs instead, and a shard
+    without any adds nothing (its NaN mean does not turn the merged mean into NaN).  With every
+    fraction 1 (or NaN: no S4 estimate) this is the plain trial-weighted formula, bit for bit."""
+    plain = sum(d["s4_hat_mean"] * int(d["n_trials"]) for d in shards) / n
+    if not all("s4_hat_estimable" in d for d in shards):
+        return plain
+    fracs = [d["s4_hat_estimable"] for d in shards]
+    if all(bool(((f == 1.0) | f.isnull()).all()) for f in fracs):
+        return plain
+    weights = [f.fillna(0.0) * int(d["n_trials"]) for f, d in zip(fracs, shards)]
+    num = sum((d["s4_hat_mean"].fillna(0.0) * w) for d, w in zip(shards, weights))
+    den = sum(weights)
+    return num / den.where(den > 0)  # NaN where nothing was estimable (and for trackers without an S4 estimate)
 
 
 def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:
@@ -38,10 +59,18 @@ def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:
             "example_trial": first["example_trial"],
             "s4_true": first["s4_true"],
             "tau0_true": first["tau0_true"],
-            "s4_hat_mean": sum(d["s4_hat_mean"] * int(d["n_trials"]) for d in shards) / n,
+            "s4_hat_mean": _s4_mean(shards, n),
             "n_trials": n,
         }
     )
+    if "s4_hat_estimable" in first:
+        out["s4_hat_estimable"] = sum(d["s4_hat_estimable"] * int(d["n_trials"]) for d in shards) / n
+    for key in ("design_s4", "design_tau0"):
+        if key in first:
+            out[key] = first[key]
+    for key in ("diverged_epoch", "divergence_reason"):
+        if key in first:
+            out[key] = xr.concat([d[key] for d in shards], dim="trial")
     optional = [k for k in ("jitter_discriminator", "jitter_tracking") if k in first]
     for key in optional:
         out[key] = xr.concat([d[key] for d in shards], dim="trial")
@@ -69,7 +98,8 @@ def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:
     out["steady_rmse_total"] = (("tracker",), s, {**attrs, "long_name": "steady-state RMSE of the wrapped total-phase error"})
     out["steady_rmse_total_lo"] = (("tracker",), slo, attrs)
     out["steady_rmse_total_hi"] = (("tracker",), shi, attrs)
+    guard_keys = [k for k in ("s4_hat_estimable", "diverged_epoch", "divergence_reason") if k in first]
     for key in ("sq_sum", "sq2_sum", "slips", "slip_events", "ms_steady", "example_error", "s4_true", "s4_hat_mean", "ms_total_steady", "slips_total",
-                "slip_events_total", "time_in_lock", *optional):
+                "slip_events_total", "time_in_lock", *optional, *guard_keys):
         out[key].attrs.update(first[key].attrs)
     return out

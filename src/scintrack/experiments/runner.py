@@ -14,7 +14,22 @@ separate jobs (or on a cluster) and be combined exactly by :func:`~scintrack.exp
 * ``s4_true`` (time) and, for adaptive trackers, ``s4_hat_mean`` (tracker, time)
   and ``s4_hat_median`` (tracker, trial), each trial's median over the
   steady-state window (robust to the epochs where the M2M4-corrected estimate
-  explodes);
+  explodes); a non-finite estimate means "not estimable in this window": both
+  statistics skip it (:func:`s4_statistics`) and ``s4_hat_estimable``
+  (tracker, time) is the fraction of trial-epochs that were estimable (NaN for
+  trackers without an S4 estimate);
+* ``design_s4`` / ``design_tau0`` (tracker): the AR look-up-table point a
+  fixed-design tracker was built with (the grid point actually used, within
+  :func:`scintrack.models.lut.within_tolerance` of the request; NaN for
+  adaptive trackers and trackers without a scintillation model);
+* ``diverged_epoch`` / ``divergence_reason`` (tracker, trial): the numerical
+  guard (:mod:`.guards`): first epoch of divergence (-1 none; attribute
+  ``epoch_period_s``) and its reason code (``flag_values`` /
+  ``flag_meanings``).  A diverged trial's estimate is held at its last good
+  value from that epoch on (:func:`.guards.sanitize`), so every metric below
+  counts it as lost lock and stays finite; it is never left out.  A run in
+  which nothing diverges gives every other variable exactly as without the
+  guard;
 * for trackers that report their discriminator output (the PLL and the Susi
   KF PLLs, Susi et al. 2014): ``jitter_discriminator`` (tracker, trial,
   window), the standard deviation of the discriminator output over
@@ -58,6 +73,7 @@ an attribute, so the content hash of the results does not depend on them).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
@@ -69,6 +85,7 @@ from ..io import canonical_json
 from ..progress import Progress
 from ..trackers import registry
 from ..trackers.base import TrackerContext
+from . import guards
 from .merge import MONITORS, merge  # noqa: F401  (merge: re-exported; it lives in .merge, light to import)
 from .metrics import slip_counts, unwrapped_error, wrap
 from .scenario import acquisition, effective_tracking, simulate
@@ -95,6 +112,30 @@ def time_in_lock(y: np.ndarray, total_hat: np.ndarray, per: int, threshold: floa
     i2, q2 = s.real**2, s.imag**2
     locked = (s.real > 0) & ((i2 - q2) >= threshold * (i2 + q2))
     return locked.mean(axis=1)
+
+
+def s4_statistics(s4: np.ndarray, block: int, steady: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(mean over trials per time block, per-trial median over ``steady``, estimable fraction per time block) of an
+    on-line S4 estimate (trials, epochs) in which a non-finite value means "not estimable in this window".
+
+    Without such values the mean and the median are the plain ``mean`` / ``median`` (the bits of the runner
+    before the guard).  With them, the mean is over the estimable trial-epochs of each block (NaN where there
+    is none) and the median over each trial's estimable epochs (NaN for a trial without any), computed without
+    all-NaN warnings; the fraction (``s4_hat_estimable``) says how much of the data they rest on, so a
+    figure can say it (:func:`.guards.divergence_note`).
+    """
+    ok = np.isfinite(s4)
+    frac = block_mean(ok.mean(axis=0), block)
+    if ok.all():
+        return block_mean(s4.mean(axis=0), block), np.median(s4[:, steady], axis=1), frac
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = block_mean(np.where(ok, s4, 0.0).sum(axis=0), block) / block_mean(ok.sum(axis=0).astype(float), block)
+    sub = np.where(ok[:, steady], s4[:, steady], np.nan)
+    med = np.full(s4.shape[0], np.nan)
+    has = ok[:, steady].any(axis=1)
+    if has.any():
+        med[has] = np.nanmedian(sub[has], axis=1)
+    return mean, med, frac
 
 
 def window_std(a: np.ndarray, per: int) -> np.ndarray:
@@ -148,6 +189,10 @@ def run_shard(
     example = np.zeros((nt, n_stat))
     s4_hat = np.full((nt, n_stat), np.nan)
     s4_med = np.full((nt, real.trials.size), np.nan)
+    s4_ok = np.full((nt, n_stat), np.nan)
+    div_epoch = np.full((nt, real.trials.size), -1, dtype=np.int64)
+    div_reason = np.zeros((nt, real.trials.size), dtype=np.int8)
+    design = np.full((nt, 2), np.nan)  # the AR-grid point a fixed-design tracker was built with (NaN: adaptive / none)
     jit_disc = np.full((nt, real.trials.size, n_windows), np.nan)
     jit_track = np.full_like(jit_disc, np.nan)
     ex_disc = np.full((nt, n_stat), np.nan)
@@ -168,7 +213,13 @@ def run_shard(
         tracker_init = init
         if getattr(tracker, "noise_estimate", "") == "reference":
             tracker_init = replace(init, noise_reference=real.noise_reference())
+        point = getattr(tracker, "design_point", None)
+        if point is not None:
+            design[j] = point
         out = tracker.run(real.y, tracker_init)
+        div = guards.detect(out, ts)
+        div_epoch[j], div_reason[j] = div.epoch, div.reason
+        out = guards.sanitize(out, div, fallback=init.phase)
         if "total_phase" in out.extras:
             total_hat = out.extras["total_phase"]
         elif "theta_s" in out.extras:
@@ -190,8 +241,7 @@ def run_shard(
         slips[j], events[j] = slip_counts(eu, hyst, settle)
         example[j] = block_mean(eu[0], block)
         if "s4_hat" in out.extras:
-            s4_hat[j] = block_mean(out.extras["s4_hat"].mean(axis=0), block)
-            s4_med[j] = np.median(out.extras["s4_hat"][:, steady], axis=1)
+            s4_hat[j], s4_med[j], s4_ok[j] = s4_statistics(out.extras["s4_hat"], block, steady)
         if "discriminator" in out.extras:
             disc = out.extras["discriminator"]
             jit_disc[j] = window_std(disc, per_window)
@@ -202,7 +252,9 @@ def run_shard(
         for m in MONITORS:
             if m in out.extras:
                 v = out.extras[m]
-                stat = np.nanmedian(v, axis=0) if m == "T" else np.nanmean(v, axis=0)
+                with warnings.catch_warnings():  # all-NaN epochs (before the SAKF's first window) give NaN, silently
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    stat = np.nanmedian(v, axis=0) if m == "T" else np.nanmean(v, axis=0)
                 monitors[m][j] = block_mean(stat, block)
         del out, eu
         prog.add(real.trials.size * n_epochs, note=f"{name} done")
@@ -223,6 +275,12 @@ def run_shard(
             "tau0_true": (("time",), block_mean(real.tau0_t, block), {"long_name": "tau0 of the CSM profile", "units": "s"}),
             "s4_hat_mean": (("tracker", "time"), s4_hat, {"long_name": "mean over trials of the on-line S4 estimate (adaptive trackers)", "units": "1"}),
             "s4_hat_median": (("tracker", "trial"), s4_med, {"long_name": "per-trial median of the on-line S4 estimate over the steady-state window", "units": "1"}),
+            "s4_hat_estimable": (("tracker", "time"), s4_ok, {"long_name": "fraction of the trial-epochs of each time block with an estimable on-line S4", "units": "1"}),
+            "diverged_epoch": (("tracker", "trial"), div_epoch, {"long_name": "first epoch of divergence of the trial (-1: none)", "units": "1",
+                                                                  "epoch_period_s": float(ts)}),
+            "divergence_reason": (("tracker", "trial"), div_reason, dict(guards.REASON_ATTRS)),
+            "design_s4": (("tracker",), design[:, 0], {"long_name": "S4 of the AR-grid point the tracker was designed for (NaN: adaptive or none)", "units": "1"}),
+            "design_tau0": (("tracker",), design[:, 1], {"long_name": "tau0 of the AR-grid point the tracker was designed for (NaN: adaptive or none)", "units": "s"}),
             "n_trials": ((), int(real.trials.size)),
         },
         coords={

@@ -8,7 +8,11 @@ amplitude, f_d0, f_r; and the sampling period Ts)::
     ar_0.5:          {duration_s: 60, scintillation_model: ar, segments: [...]}
 
 ``scintillation_model: ar`` draws the scintillation from the fitted AR models
-instead of the CSM (an isolating experiment: the AEKF-AR's model is exact).
+instead of the CSM (an isolating experiment: the AEKF-AR's model is exact),
+those of the nearest grid point of the table: the config must ask for a
+point within the look-up tolerance (:mod:`scintrack.validity`), and the
+point used is the truth recorded (``s4_t``, ``tau0_t`` and
+``Realisation.model_point``).
 A recorded (real or surrogate) trace is passed to :func:`simulate` as
 ``trace=(rho, theta)``, its phase already referenced by the caller;
 ``dynamics=False`` gives the static, dynamics-free case of Sec. VI-E2
@@ -71,6 +75,9 @@ class Realisation:
     fd0_hz: float = 0.0
     seed: int = 0
     name: str = ""
+    #: ``scintillation_model: ar``: the (S4, tau0) of the look-up-table point whose models drew the scintillation
+    #: (the nearest grid point, within the look-up tolerance of the request: scintrack.validity); None otherwise
+    model_point: tuple[float, float] | None = None
 
     @property
     def time(self) -> np.ndarray:
@@ -160,6 +167,7 @@ def simulate(
         theta_d = np.zeros((trials.size, n_epochs))
     segs = segments_of(scenario)
     warmup = int(round(warmup_s / ts))
+    model_point = None
     if trace is None and scenario.get("scintillation_model") == "trace":
         raise ValueError(f"scenario {name!r}: scintillation_model trace needs its trace (the experiment rule passes it)")
     if trace is not None:
@@ -178,8 +186,10 @@ def simulate(
     elif scenario.get("scintillation_model", "csm") == "ar":
         if len(segs) != 1 or lut is None:
             raise ValueError(f"scenario {name!r}: an AR scintillation model needs one segment and the AR look-up table")
-        theta_s, rho = ar_scintillation(seed, f"scenario/{name}/ar", trials, n_epochs, scintillation_ar(lut, segs[0].s4, segs[0].tau0))
-        s4_t, tau0_t = np.full(n_epochs, segs[0].s4), np.full(n_epochs, segs[0].tau0)
+        model = scintillation_ar(lut, segs[0].s4, segs[0].tau0)
+        theta_s, rho = ar_scintillation(seed, f"scenario/{name}/ar", trials, n_epochs, model)
+        model_point = (float(model.s4), float(model.tau0))
+        s4_t, tau0_t = np.full(n_epochs, model_point[0]), np.full(n_epochs, model_point[1])  # the point used, not the request
     elif len(segs) == 1:
         z = generate_csm(seed=seed, name=f"scenario/{name}/csm", trials=trials, n_epochs=n_epochs, ts=ts, s4=segs[0].s4, tau0=segs[0].tau0, nspa=nspa, warmup=warmup).z
         rho, theta_s = np.abs(z), np.unwrap(np.angle(z), axis=-1)
@@ -193,4 +203,4 @@ def simulate(
     noise = complex_noise(seed, f"scenario/{name}/noise", trials, n_epochs, s2)
     y = prompts(theta_d + theta_s, rho, noise, amp)
     return Realisation(trials=trials, ts=ts, theta_d=theta_d, theta_s=theta_s, rho_s=rho, y=y, noise_power=s2, s4_t=s4_t, tau0_t=tau0_t, fd0_hz=fd0,
-                       seed=int(seed), name=name)
+                       seed=int(seed), name=name, model_point=model_point)

@@ -12,6 +12,8 @@ import os
 from collections.abc import Iterable
 from pathlib import Path
 
+from ..atomic import atomic_write
+
 
 def _pyplot():
     """matplotlib.pyplot on the Agg backend, imported on first use: building the
@@ -52,12 +54,9 @@ def save_figure(fig, paths: Iterable[str | os.PathLike]) -> list[Path]:
     plt = _pyplot()
     with plt.rc_context(STYLE):
         for path in map(Path, paths):
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_name(f".{path.name}.part")
             fmt = path.suffix.lstrip(".")
             meta = PDF_METADATA if fmt == "pdf" else PNG_METADATA if fmt == "png" else None
-            fig.savefig(tmp, format=fmt, metadata=meta)
-            os.replace(tmp, path)
+            atomic_write(path, lambda tmp, fmt=fmt, meta=meta: fig.savefig(tmp, format=fmt, metadata=meta))
             written.append(path)
     plt.close(fig)
     return written
@@ -76,3 +75,15 @@ def symlog_axis(ax, linthresh: float) -> None:
     subs = [1.0, 2.0, 5.0] if math.log10(max(top, linthresh) / linthresh) <= 1.5 else [1.0]
     ax.yaxis.set_major_locator(SymmetricalLogLocator(base=10, linthresh=linthresh, subs=subs))
     ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
+
+
+def add_footer(fig, text: str, width: int = 180) -> None:
+    """Small text at the bottom edge of ``fig`` (nothing for ""): the numerical-guard note of the results a
+    figure is drawn from (:func:`scintrack.experiments.guards.divergence_note`), added to every figure by
+    the render rule, so no figure drawn from a diverged run or from nan-aware S4 means can hide it."""
+    if not text:
+        return
+    import textwrap
+
+    lines = textwrap.wrap(text, width)
+    fig.text(0.005, 0.002, "\n".join(lines), fontsize=5.5, ha="left", va="bottom", color="tab:red")

@@ -7,6 +7,23 @@ trial averages that trackers use; :func:`lookup` returns the :class:`~.ar.ArMode
 nearest grid point and :func:`scintillation_ar` the phase/amplitude pair the
 trackers use (orders from Table I).
 
+Nearest-point look-ups.  :func:`nearest_point` is the one rule (xarray's
+``sel(method="nearest")`` per axis) by which a requested (S4, tau0) becomes a
+grid point; :func:`grid_of` makes a table-less grid from the config
+(``ar_training.s4/tau0``) so that :mod:`scintrack.validity` applies the same
+rule before anything runs.  A look-up is *on the grid* when the nearest point
+is within :data:`LOOKUP_TOL_S4` (0.005 in S4, half the 0.01 to which the
+configs give S4) and :data:`LOOKUP_TOL_TAU0` (1 % of the requested tau0) of
+the requested one (:func:`within_tolerance`): the grid point then stands for
+it up to how the config writes numbers.  Anything further is refused at
+config time (:func:`scintrack.validity.check_model_ranges`), since the
+trackers and ``scintillation_model: ar`` scenarios would silently use a
+different model (S4 = 1.5 used the S4 = 1 models, realising 0.77).  The
+point actually used is :attr:`ScintillationAR.s4` / ``tau0`` of the returned
+models (a tracker's ``design_point``; a scenario's ``Realisation.model_point``).
+:func:`scintillation_ar` itself still takes the nearest point for any
+request (library use, e.g. the AR-order study), the refusal is the config's.
+
 Layout of the table (NetCDF, CF-style attributes):
 
 * ``coef(s4, tau0, component, order, lag)``: trial-mean AR coefficients of the
@@ -169,10 +186,26 @@ TABLE_I_PHASE_ORDER = {"severe": 1, "moderate": 2, "low": 3}
 AMPLITUDE_ORDER = 3
 
 
+#: a look-up is on the grid when |S4 - S4_grid| <= this ...
+LOOKUP_TOL_S4 = 0.005
+#: ... and |tau0 - tau0_grid| <= this fraction of the requested tau0
+LOOKUP_TOL_TAU0 = 0.01
+
+
 def nearest_point(lut: xr.Dataset, s4: float, tau0: float) -> tuple[float, float]:
-    """The grid point (S4, tau0) of the table nearest to (s4, tau0)."""
+    """The grid point (S4, tau0) of the table (or of :func:`grid_of`) nearest to (s4, tau0)."""
     point = lut.sel(s4=s4, tau0=tau0, method="nearest")
     return float(point["s4"].values), float(point["tau0"].values)
+
+
+def grid_of(s4: Sequence[float], tau0: Sequence[float]) -> xr.Dataset:
+    """A coordinates-only stand-in for the table on the grid ``s4`` x ``tau0`` (config time: no table yet)."""
+    return xr.Dataset(coords={"s4": np.sort(np.asarray(s4, dtype=float)), "tau0": np.sort(np.asarray(tau0, dtype=float))})
+
+
+def within_tolerance(requested: tuple[float, float], used: tuple[float, float]) -> bool:
+    """True when the grid point ``used`` stands for ``requested`` (:data:`LOOKUP_TOL_S4`, :data:`LOOKUP_TOL_TAU0`)."""
+    return abs(used[0] - requested[0]) <= LOOKUP_TOL_S4 and abs(used[1] - requested[1]) <= LOOKUP_TOL_TAU0 * requested[1]
 
 
 def lookup(lut: xr.Dataset, s4: float, tau0: float, component: str, order: int) -> ArModel:

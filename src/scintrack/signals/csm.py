@@ -18,6 +18,15 @@ as implemented in the authors' own ``scintModel04.m``:
    sub-samples (what a correlator sees, ``zScintA``); point samples
    (``zScint``) are available too.
 
+Range of S4.  ``m = max(1, 1/S4^2)`` caps the Nakagami-m at 1 (Rayleigh,
+``K = 0``): every S4 >= 1 gives the S4 = 1 field, so the CSM realises only
+``0 < S4 <= 1`` (:data:`S4_MAX`).  The generators refuse a larger S4
+(:func:`check_s4`) instead of returning an S4 = 1 field labelled otherwise;
+the config schema (``$defs/s4``) and :mod:`scintrack.validity` refuse it
+before anything runs.  (An S4 > 1, focusing, would need another model, e.g.
+Nakagami-m with m < 1, which the CSM is not; we add none.)
+:func:`rice_k_from_s4` keeps the toolkit's formula with its clamp.
+
 Choices of ours (documented in ``docs/modelling-choices.md``):
 
 * Seeding: one independent ``SeedSequence`` stream per (dataset, trial)
@@ -47,6 +56,8 @@ from ..seeding import rng_for
 GENERATOR_VERSION = "csm-1"
 
 BETA0 = 1.23964643681047
+#: the largest S4 the CSM realises (m = max(1, 1/S4^2) >= 1: Rician, Rayleigh at S4 = 1)
+S4_MAX = 1.0
 NSPA_DEFAULT = 8
 #: sub-sample working set of one generation block [bytes] (see :func:`trial_chunks`)
 CHUNK_BYTES = 64 * 2**20
@@ -60,6 +71,17 @@ def rice_k_from_s4(s4: float | np.ndarray) -> np.ndarray:
     m = np.maximum(1.0, 1.0 / s4**2)
     root = np.sqrt(m**2 - m)
     return root / (m - root)
+
+
+def check_s4(s4: float) -> float:
+    """``s4`` if the CSM realises it (``0 < S4 <= S4_MAX``), else a ValueError naming the fix."""
+    s4 = float(s4)
+    if not 0.0 < s4 <= S4_MAX:
+        raise ValueError(
+            f"S4 {s4:g} is outside 0 < S4 <= {S4_MAX:g}, what the CSM generator realises (Nakagami/Rician m >= 1); "
+            "use 0 < S4 <= 1 in config/config.yaml or your overlay"
+        )
+    return s4
 
 
 def cutoff_hz(tau0: float) -> float:
@@ -153,7 +175,7 @@ def generate_csm(
     """
     if n_epochs <= 0:
         raise ValueError("n_epochs must be > 0")
-    k = float(rice_k_from_s4(s4))
+    k = float(rice_k_from_s4(check_s4(s4)))
     ts_sub = ts / nspa
     b, a = butterworth(tau0, ts_sub)
     n_sub = (n_epochs + warmup) * nspa
@@ -235,7 +257,7 @@ def generate_csm_profile(
         if hi <= lo:
             continue
         b, a = butterworth(seg.tau0, ts_sub)
-        k = float(rice_k_from_s4(seg.s4))
+        k = float(rice_k_from_s4(check_s4(seg.s4)))
         power = 2.0 * _filter_power(b, a, seg.tau0, ts_sub)
         los[lo:hi] = np.sqrt(k / (1.0 + k))
         diffuse_scale[lo:hi] = np.sqrt(1.0 / ((1.0 + k) * power))

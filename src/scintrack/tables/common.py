@@ -23,3 +23,9 @@ def write_table(df: pd.DataFrame, csv_path: str | os.PathLike, md_path: str | os
     md = f"# {title}\n\n" + to_markdown(df, floatfmt) + (f"\n{note}\n" if note else "")
     write_text(md, md_path)
     return [Path(csv_path), Path(md_path)]
+
+
+def join_notes(*notes: str) -> str:
+    """The non-empty notes, separated by a space (a table's own note, then the numerical-guard note of
+    :func:`scintrack.experiments.guards.divergence_note`, which the render rule adds to every table)."""
+    return " ".join(n.strip() for n in notes if n and n.strip())

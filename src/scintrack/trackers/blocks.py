@@ -25,11 +25,15 @@ Vila-Valls et al. 2018 (Sec. IV-V) equations and the block that implements them:
 * sliding-window running sums (ring buffers, exact re-sum once per lap):
   :func:`window_push` (on lanes: :func:`window_push_lanes`), window moments
   :func:`window_mean_var`;
-* noise-corrected S4 from intensity moments (Sec. V-B): :func:`s4_corrected`;
+* noise-corrected S4 from intensity moments (Sec. V-B), NaN when not
+  estimable: :func:`s4_corrected`; the lane-wise select it is made with
+  (numbers and Lanes alike): :func:`select_less`;
 * nearest adaptation point (Sec. V-B): :func:`nearest_index` (on lanes:
   :func:`nearest_index_lanes`);
 * the mirror fold of the AEKF-AR (an isolating option, not in the paper):
   :func:`fold_mirror`; periodic symmetrisation of P: :func:`symmetrise`;
+* the divergence guard's covariance test (finite, non-negative phase and
+  frequency variances, 2 x 2 minor >= 0): :func:`covariance_ok`;
 * third-order PLL loop filter (Kaplan & Hegarty): :func:`pll_constants`,
   :func:`pll_step`.
 
@@ -177,10 +181,39 @@ def window_mean_var(s1, s2, count):
     return s1 / count, window_variance(s1, s2, count)
 
 
+#: "not estimable" below: the signal power ``mean(I) - s2`` is at most this fraction of the noise power ``s2``
+S4_SIGNAL_FRACTION = 0.1
+#: "not estimable" at and above: an S4 no fading model reaches (Nakagami-m, m >= 1/2: S4 <= sqrt 2)
+S4_ESTIMABLE_MAX = 2.0
+
+
 def _s4_corrected(mean_i, var_i, noise_power):
+    """Noise-corrected S4 (:mod:`scintrack.estimators.s4`), NaN when not estimable.
+
+    ``S4^2 = (var_i - 2 S s2 - s2^2) / S^2`` with ``S = mean_i - s2`` (floored
+    at 1e-12, a negative ``S4^2`` floored at 0, as always).  NaN ("not
+    estimable") when
+
+    * ``S <= S4_SIGNAL_FRACTION * s2`` (0.1): the signal part of the intensity
+      variance, ``S^2 S4^2 <= 0.01 s2^2`` even at S4 = 1, is below the sampling
+      error of the variance of a noise-dominated intensity, ``~ s2^2
+      sqrt(8 / N)``, for every window shorter than N = 8e4 epochs (the
+      on-line window is 1e3-1e4); below it the estimate is noise (at 10
+      dB-Hz and 10 ms, ``S / s2 = 0.1``; the 1e-12 floor alone gave S4 up to
+      2.7e12);
+    * the S4 is NaN or ``>= S4_ESTIMABLE_MAX`` (2): above any fading model
+      (Nakagami-m with m >= 1/2, the family's limit, has S4 <= sqrt 2 = 1.41;
+      the CSM realises S4 <= 1, the phase screen saturates near 1), with a
+      margin of 40 % for the sampling error of a window estimate.
+
+    Wherever neither applies the value is bit for bit the former one.  The
+    tests are :func:`select_less` (ordered compares: a NaN input fails them
+    and gives NaN), so the same formula compiles for Lanes.
+    """
     sig = max(mean_i - noise_power, 1e-12)
     s4sq = (var_i - 2.0 * sig * noise_power - noise_power * noise_power) / (sig * sig)
-    return math.sqrt(max(s4sq, 0.0))
+    s4 = math.sqrt(max(s4sq, 0.0))
+    return select_less(S4_SIGNAL_FRACTION * noise_power, sig, select_less(s4, S4_ESTIMABLE_MAX, s4, math.nan), math.nan)
 
 
 s4_corrected = njit(cache=True)(_s4_corrected)
@@ -286,6 +319,36 @@ def symmetrise(P):
             m = 0.5 * (P[a, b] + P[b, a])
             P[a, b] = m
             P[b, a] = m
+
+
+#: relative slack of the Cauchy-Schwarz test of :func:`covariance_ok` (rounding of a strongly correlated pair)
+COV_CORRELATION_SLACK = 1e-6
+
+
+def _covariance_ok(paa, pbb, pab):
+    """The cheapest meaningful positive-(semi)definiteness test of a covariance, on one pair of states.
+
+    ``paa``, ``pbb``: the variances of the phase and the frequency state;
+    ``pab`` their covariance.  Passes when both variances are finite and
+    >= 0 and ``pab^2 <= paa pbb (1 + COV_CORRELATION_SLACK)`` (the 2 x 2
+    principal minor >= 0, Cauchy-Schwarz): necessary conditions of a positive
+    semi-definite P, three loads and a few compares per epoch.  An exact zero
+    variance passes (a state known exactly, e.g. the static AEKF-AR's
+    dynamics block with P0 = Q = 0); a NaN or inf anywhere in the pair fails
+    (every comparison with NaN is false).  The slack allows the rounding of a
+    pair correlated to within 1e-6 of 1; a filter that has truly lost positive
+    definiteness violates it by orders of magnitude.  Read-only: the kernels
+    call it on the updated P and record the first failing epoch per trial
+    (``extras["cov_fail_epoch"]``, -1 none), which
+    :mod:`scintrack.experiments.guards` turns into a divergence flag.
+    """
+    if not (paa >= 0.0 and pbb >= 0.0 and paa < math.inf and pbb < math.inf):
+        return False
+    return pab * pab <= paa * pbb * (1.0 + COV_CORRELATION_SLACK)
+
+
+covariance_ok = njit(cache=True)(_covariance_ok)
+covariance_ok_ufunc = _Ufunc(_covariance_ok, ["boolean(float64, float64, float64)"])
 
 
 # --- third-order PLL loop filter ------------------------------------------------
@@ -547,6 +610,26 @@ def _lanes_pow(a, b):
 
 #: ``where(a < b, x, y)`` on every lane (ordered compare); numbers are broadcast
 lane_where_less = _lanes_intrinsic(4, lambda b, a_, b_, x, y: b.select(b.fcmp_ordered("<", a_, b_), x, y))
+
+
+def select_less(a, b, x, y):
+    """``x if a < b else y`` on numbers, and lane by lane on Lanes (:data:`lane_where_less`).
+
+    Ordered compare: a NaN ``a`` or ``b`` selects ``y``.  The one lane-wise
+    select of the scalar blocks (a block that must compile for both numbers
+    and Lanes cannot branch per lane), e.g. the "not estimable" NaN of
+    :func:`s4_corrected` and the AEKF-AR's hold of the last estimable S4.
+    """
+    return x if a < b else y
+
+
+@overload(select_less)
+def _select_less(a, b, x, y):
+    if _lanes_args(a, b, x, y):
+        return lambda a, b, x, y: lane_where_less(a, b, x, y)
+    if all(isinstance(t, (types.Float, types.Integer)) for t in (a, b, x, y)):
+        return lambda a, b, x, y: x if a < b else y
+    return None
 
 
 @njit(cache=True)

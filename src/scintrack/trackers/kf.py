@@ -47,7 +47,7 @@ from .base import (
     spec_p0,
     spec_q_jerk,
 )
-from .design import compose, design_ar, explicit_design_s4, q_qualifier
+from .design import compose, design_ar, design_point, explicit_design_s4, q_qualifier
 from .registry import register
 
 
@@ -81,6 +81,7 @@ def kf_kernel(y, prm):
     out = np.empty((n_tr, k))
     r_out = np.empty((n_tr, k)) if prm.adaptive else np.empty((0, 0))
     tot = np.empty((n_tr, k)) if n > 3 else np.empty((0, 0))
+    cov_fail = np.full(n_tr, -1, dtype=np.int64)
     buf2 = np.zeros(prm.window)
     buf4 = np.zeros(prm.window)
     x = np.empty(n)
@@ -117,10 +118,12 @@ def kf_kernel(y, prm):
             else:
                 R = prm.r_fixed
             blocks.scalar_update(x, P, PH, prm.H, R, nu)
+            if cov_fail[t] < 0 and not blocks.covariance_ok(P[0, 0], P[1, 1], P[0, 1]):
+                cov_fail[t] = i
             out[t, i] = x[0]
             if n > 3:
                 tot[t, i] = x[0] + x[3]
-    return out, r_out, tot
+    return out, r_out, tot, cov_fail
 
 
 @dataclass
@@ -176,12 +179,13 @@ class DiscriminatorKF:
 
     def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
         """Compiled loop (:func:`kf_kernel`)."""
-        out, r_out, tot = kf_kernel(np.ascontiguousarray(y, dtype=complex), self.params(init))
-        return TrackOutput(theta_d=out, extras=self._extras(r_out, tot))
+        out, r_out, tot, cov_fail = kf_kernel(np.ascontiguousarray(y, dtype=complex), self.params(init))
+        return TrackOutput(theta_d=out, extras=self._extras(r_out, tot, cov_fail))
 
-    def _extras(self, r_out: np.ndarray, total: np.ndarray) -> dict[str, np.ndarray]:
-        """``R`` (adaptive) and, with AR states, ``total_phase`` = theta_d + theta_s estimate (``H x``)."""
-        extras = {"R": r_out} if self.adaptive_r else {}
+    def _extras(self, r_out: np.ndarray, total: np.ndarray, cov_fail: np.ndarray) -> dict[str, np.ndarray]:
+        """``R`` (adaptive), with AR states ``total_phase`` = theta_d + theta_s estimate (``H x``), and
+        ``cov_fail_epoch`` (trials,): first epoch whose updated P fails :func:`.blocks.covariance_ok` (-1 none)."""
+        extras = {"R": r_out, "cov_fail_epoch": cov_fail} if self.adaptive_r else {"cov_fail_epoch": cov_fail}
         if self.ar_coefs is not None:
             extras["total_phase"] = total
         return extras
@@ -203,6 +207,7 @@ class DiscriminatorKF:
         out = np.empty((n_tr, k))
         r_out = np.empty((n_tr, k))
         tot = np.empty((n_tr, k))
+        cov_fail = np.full(n_tr, -1, dtype=np.int64)
         for i in range(k):
             if i > 0:
                 x = F @ x
@@ -219,9 +224,10 @@ class DiscriminatorKF:
             K = P @ H.T @ np.linalg.inv(S)  # (trials, n, 1)
             x = x + K * nu[:, None, None]
             P = (eye - K @ H) @ P
+            cov_fail[(cov_fail < 0) & ~blocks.covariance_ok_ufunc(P[:, 0, 0], P[:, 1, 1], P[:, 0, 1])] = i
             out[:, i] = x[:, 0, 0]
             tot[:, i] = (H @ x)[:, 0, 0]
-        return TrackOutput(theta_d=out, extras=self._extras(r_out, tot))
+        return TrackOutput(theta_d=out, extras=self._extras(r_out, tot, cov_fail))
 
     @classmethod
     def _common(cls, spec: Mapping[str, Any], context: TrackerContext, adaptive: bool) -> dict[str, Any]:
@@ -271,7 +277,9 @@ class AKFAR(DiscriminatorKF):
     @classmethod
     def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> AKFAR:
         ar = design_ar(spec, context)
-        return cls(**cls._common(spec, context, adaptive=True), ar_coefs=ar.phase.coefs, ar_sigma2=ar.phase.sigma2, ar_p0=float(context.tracking["theta_s_p0"]))
+        tracker = cls(**cls._common(spec, context, adaptive=True), ar_coefs=ar.phase.coefs, ar_sigma2=ar.phase.sigma2, ar_p0=float(context.tracking["theta_s_p0"]))
+        tracker.design_point = design_point(ar)  # (S4, tau0) of the table point used (.design); None: no scintillation model
+        return tracker
 
     @staticmethod
     def label(name: str, spec: Mapping[str, Any]) -> str:

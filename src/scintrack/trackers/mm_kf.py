@@ -78,7 +78,9 @@ Choices the paper leaves open, and why:
 * extras: ``frequency_hz``, ``amplitude``, ``p_plus`` (posterior probability of
   d = +1), ``log_odds`` (its log-odds, the soft bit for a decoder; +-inf for
   known bits) and ``cn0_dbhz = 10 log10(A^2 / (2 sigma_v^2 T))``
-  (:func:`.blocks.cn0_from_powers`).
+  (:func:`.blocks.cn0_from_powers`); ``cov_fail_epoch`` (trials,): the first
+  epoch whose (phase, frequency) covariance fails :func:`.blocks.covariance_ok`
+  (-1 none; the amplitude variance may legitimately reach 0 with ``amplitude_q = 0``).
 
 Config: ``{type: mm_kf, clock: zhao_tcxo, q_form: exact, r: m2m4, m2m4_window: 100}``.
 """
@@ -185,6 +187,7 @@ def mm_kf_kernel(y, prm):
     p_plus = np.empty((n_tr, k))
     log_odds = np.empty((n_tr, k))
     cn0_db = np.empty((n_tr, k))
+    cov_fail = np.full(n_tr, -1, dtype=np.int64)
     buf2 = np.zeros(prm.window)
     buf4 = np.zeros(prm.window)
     x = np.empty(3)
@@ -221,11 +224,13 @@ def mm_kf_kernel(y, prm):
                 r = prm.r_fixed
             p_plus[t, i], log_odds[t, i] = two_mode_iq_update(x, P, ph0, ph1, k0, k1, dx, r, yr, yi, prm.log_pp[t, i], prm.log_pm[t, i])
             blocks.symmetrise(P)
+            if cov_fail[t] < 0 and not blocks.covariance_ok(P[1, 1], P[2, 2], P[1, 2]):
+                cov_fail[t] = i
             amp[t, i] = x[0]
             theta[t, i] = x[1]
             freq[t, i] = x[2]
             cn0_db[t, i] = 10.0 * math.log10(blocks.cn0_from_powers(x[0] * x[0], 2.0 * r, prm.ts))
-    return theta, freq, amp, p_plus, log_odds, cn0_db
+    return theta, freq, amp, p_plus, log_odds, cn0_db, cov_fail
 
 
 def _positive(value: float, arg: str) -> float:
@@ -379,8 +384,9 @@ class MMKF:
     def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
         """Compiled loop (:func:`mm_kf_kernel`)."""
         y = self._prompts(y)
-        theta, freq, amp, p_plus, log_odds, cn0 = mm_kf_kernel(y, self.params(y, init))
-        return TrackOutput(theta_d=theta, extras={"frequency_hz": freq, "amplitude": amp, "p_plus": p_plus, "log_odds": log_odds, "cn0_dbhz": cn0})
+        theta, freq, amp, p_plus, log_odds, cn0, cov_fail = mm_kf_kernel(y, self.params(y, init))
+        return TrackOutput(theta_d=theta, extras={"frequency_hz": freq, "amplitude": amp, "p_plus": p_plus, "log_odds": log_odds, "cn0_dbhz": cn0,
+                                                  "cov_fail_epoch": cov_fail})
 
     def reference(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
         """Textbook GPB1 in numpy, one time loop vectorised over trials.
@@ -402,6 +408,7 @@ class MMKF:
         est = StreamingM2M4(n_tr, prm.window, prior_signal=0.0, prior_noise=0.0, min_epochs=1, floor_fraction=prm.floor_fraction)
         names = ("theta", "freq", "amp", "p_plus", "log_odds", "cn0")
         out = {name: np.empty((n_tr, k)) for name in names}
+        cov_fail = np.full(n_tr, -1, dtype=np.int64)
         for i in range(k):
             if i > 0:
                 x = F @ x
@@ -429,10 +436,12 @@ class MMKF:
             x = sum(mu[j][:, None, None] * modes[j][0] for j in range(2))
             P = sum(mu[j][:, None, None] * (modes[j][1] + (modes[j][0] - x) @ (modes[j][0] - x).transpose(0, 2, 1)) for j in range(2))
             P = 0.5 * (P + P.transpose(0, 2, 1))
+            cov_fail[(cov_fail < 0) & ~blocks.covariance_ok_ufunc(P[:, 1, 1], P[:, 2, 2], P[:, 1, 2])] = i
             out["theta"][:, i], out["freq"][:, i], out["amp"][:, i] = x[:, 1, 0], x[:, 2, 0], x[:, 0, 0]
             out["p_plus"][:, i], out["log_odds"][:, i] = mu[0], w[0] - w[1]
             out["cn0"][:, i] = 10.0 * np.log10(cn0_from_powers(x[:, 0, 0] ** 2, 2.0 * r, self.ts))
         return TrackOutput(
             theta_d=out["theta"],
-            extras={"frequency_hz": out["freq"], "amplitude": out["amp"], "p_plus": out["p_plus"], "log_odds": out["log_odds"], "cn0_dbhz": out["cn0"]},
+            extras={"frequency_hz": out["freq"], "amplitude": out["amp"], "p_plus": out["p_plus"], "log_odds": out["log_odds"], "cn0_dbhz": out["cn0"],
+                    "cov_fail_epoch": cov_fail},
         )

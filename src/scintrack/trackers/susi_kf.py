@@ -111,8 +111,11 @@ class SusiParams(NamedTuple):
 
 
 @njit(cache=True)
-def susi_kernel(y, i0, i1, prm, x_all, P_all, buf2, buf4, sums, counters, s_phi, s_f, weight, out, innov, freq, r_out):
+def susi_kernel(y, i0, i1, prm, x_all, P_all, buf2, buf4, sums, counters, s_phi, s_f, weight, out, innov, freq, r_out, cov_fail):
     """Epochs [i0, i1) of every trial; the state (x, P, M2M4 windows) is carried in the arrays.
+
+    ``cov_fail`` (trials,): first epoch whose updated P fails
+    :func:`.blocks.covariance_ok` (-1 none), carried across calls too.
 
     ``s_phi``/``s_f``/``weight`` (per trial) are the scintillation PSDs of
     eqs. (7)-(8) and the gain weight of eq. (12) in force over these epochs.
@@ -152,6 +155,8 @@ def susi_kernel(y, i0, i1, prm, x_all, P_all, buf2, buf4, sums, counters, s_phi,
             else:
                 R = prm.r_fixed
             blocks.weighted_scalar_update(x, P, PH, prm.H, R, nu, weight[t])
+            if cov_fail[t] < 0 and not blocks.covariance_ok(P[0, 0], P[1, 1], P[0, 1]):
+                cov_fail[t] = i
             out[t, i] = x[0]
             innov[t, i] = nu
             freq[t, i] = x[1]
@@ -279,8 +284,9 @@ class SusiKF:
         hop = self.hop if self.scintillation else k
         return [(i0, min(i0 + hop, k)) for i0 in range(0, k, hop)]
 
-    def _outputs(self, out, series) -> TrackOutput:
-        return TrackOutput(theta_d=out, extras={name: series[name] for name in self.record if name in series})
+    def _outputs(self, out, series, cov_fail) -> TrackOutput:
+        """The recorded series and ``cov_fail_epoch`` (trials,; -1 none), always."""
+        return TrackOutput(theta_d=out, extras={**{name: series[name] for name in self.record if name in series}, "cov_fail_epoch": cov_fail})
 
     # --- compiled loop -------------------------------------------------------------
 
@@ -295,19 +301,20 @@ class SusiKF:
         sums = np.zeros((n_tr, 2))
         counters = np.zeros((n_tr, 2), dtype=np.int64)
         out, innov, freq, r_out = (np.empty((n_tr, k)) for _ in range(4))
+        cov_fail = np.full(n_tr, -1, dtype=np.int64)
         series = {"discriminator": innov, "frequency_hz": freq, "R": r_out}
         scint_names = ("phi3", "T", "p", "weight")
         if self.scintillation:
             series.update({name: np.full((n_tr, k), np.nan) for name in scint_names})
         sc = self._initial_scint(n_tr)
         for i0, i1 in self._schedule(k):
-            susi_kernel(y, i0, i1, prm, x, P, buf2, buf4, sums, counters, sc["s_phi"], sc["s_f"], sc["weight"], out, innov, freq, r_out)
+            susi_kernel(y, i0, i1, prm, x, P, buf2, buf4, sums, counters, sc["s_phi"], sc["s_f"], sc["weight"], out, innov, freq, r_out, cov_fail)
             if self.scintillation:
                 for name in scint_names:
                     series[name][:, i0:i1] = sc[name][:, None]
                 if i1 >= self.n_window:
                     sc = self.scintillation_update(out[:, i1 - self.n_window : i1])
-        return self._outputs(out, series)
+        return self._outputs(out, series, cov_fail)
 
     # --- textbook form -------------------------------------------------------------
 
@@ -328,6 +335,7 @@ class SusiKF:
         P = np.broadcast_to(np.diag(np.asarray(self.p0_diag, dtype=float)), (n_tr, 3, 3)).copy()
         cn0 = StreamingM2M4(n_tr, self.cn0_window, prior_signal=self.amplitude**2, prior_noise=self.nominal_noise, min_epochs=M2M4_MIN_EPOCHS, floor_fraction=M2M4_FLOOR)
         out, innov, freq, r_out = (np.empty((n_tr, k)) for _ in range(4))
+        cov_fail = np.full(n_tr, -1, dtype=np.int64)
         series = {"discriminator": innov, "frequency_hz": freq, "R": r_out}
         scint_names = ("phi3", "T", "p", "weight")
         if self.scintillation:
@@ -362,13 +370,14 @@ class SusiKF:
                 x = x + K * nu[:, None, None]
                 IKH = eye - K @ H
                 P = IKH @ P @ np.swapaxes(IKH, 1, 2) + K @ np.swapaxes(K, 1, 2) * R[:, None, None]
+                cov_fail[(cov_fail < 0) & ~blocks.covariance_ok_ufunc(P[:, 0, 0], P[:, 1, 1], P[:, 0, 1])] = i
                 out[:, i], innov[:, i], freq[:, i], r_out[:, i] = x[:, 0, 0], nu, x[:, 1, 0], R
             if self.scintillation:
                 for name in scint_names:
                     series[name][:, i0:i1] = sc[name][:, None]
                 if i1 >= self.n_window:
                     sc = self.scintillation_update(out[:, i1 - self.n_window : i1])
-        return self._outputs(out, series)
+        return self._outputs(out, series, cov_fail)
 
     # --- construction ----------------------------------------------------------------
 

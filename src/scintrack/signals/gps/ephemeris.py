@@ -16,6 +16,10 @@ Two things RINEX does not carry directly are derived:
 The header's Klobuchar coefficients (ION ALPHA/BETA) and UTC parameters
 (DELTA-UTC, LEAP SECONDS) are read by :func:`read_header` (georinex returns
 the first two only), for page 18 of subframe 4 and the iono model.
+
+A file that cannot be read (not RINEX, truncated, a header line or a record
+field blank or garbled) raises :class:`RinexFormatError`, one line naming the
+file and what is wrong.
 """
 
 from __future__ import annotations
@@ -24,6 +28,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from ...errors import InputError, one_line
+from . import lnav
 
 #: pi as IS-GPS-200 defines it for the user algorithms (Table 20-IV).
 GPS_PI = 3.1415926535898
@@ -57,6 +64,14 @@ _RINEX_FIELDS = {
     "IDOT": ("idot", 1.0 / GPS_PI),
     "TGD": ("t_gd", 1.0),
 }
+
+
+class RinexFormatError(InputError):
+    """A RINEX navigation file that cannot be read (malformed, truncated, blank or garbled fields)."""
+
+
+#: georinex variables every data set needs (FitIntvl is optional: 0 = 4 h)
+_REQUIRED = (*_RINEX_FIELDS, "CodesL2", "SVacc", "health", "IODC", "IODE", "L2Pflag", "TransTime")
 
 
 def ura_index(ura_m: float) -> int:
@@ -141,17 +156,24 @@ def read_header(path: str | Path) -> NavHeader:
             values[label] = line[:60]
     missing = [k for k in ("ION ALPHA", "ION BETA", "DELTA-UTC: A0,A1,T,W", "LEAP SECONDS") if k not in values]
     if missing:
-        raise ValueError(f"{path}: RINEX navigation header lacks {', '.join(missing)}")
+        raise RinexFormatError(f"{path}: RINEX navigation header lacks {', '.join(missing)}; use the complete broadcast file")
     utc = values["DELTA-UTC: A0,A1,T,W"]
-    return NavHeader(
-        alpha=tuple(_floats(values["ION ALPHA"][2:50])),  # type: ignore[arg-type]
-        beta=tuple(_floats(values["ION BETA"][2:50])),  # type: ignore[arg-type]
-        a0=float(utc[3:22].replace("D", "E")),
-        a1=float(utc[22:41].replace("D", "E")),
-        t_ot=int(utc[41:50]),
-        wn_t=int(utc[50:59]),
-        leap_seconds=int(values["LEAP SECONDS"][:6]),
-    )
+    label = "ION ALPHA"
+    try:
+        alpha = tuple(_floats(values[label][2:50]))
+        label = "ION BETA"
+        beta = tuple(_floats(values[label][2:50]))
+        label = "DELTA-UTC: A0,A1,T,W"
+        a0, a1 = float(utc[3:22].replace("D", "E")), float(utc[22:41].replace("D", "E"))
+        t_ot, wn_t = int(utc[41:50]), int(utc[50:59])
+        label = "LEAP SECONDS"
+        leap_seconds = int(values[label][:6])
+    except ValueError as exc:
+        raise RinexFormatError(f"{path}: RINEX header line {label!r} is garbled ({one_line(exc)}); use an intact broadcast file") from None
+    for label, numbers, count in (("ION ALPHA", alpha, 4), ("ION BETA", beta, 4), ("DELTA-UTC: A0,A1,T,W", (a0, a1), 2)):
+        if len(numbers) != count or not all(np.isfinite(numbers)):
+            raise RinexFormatError(f"{path}: RINEX header line {label!r} does not hold {count} finite numbers; use an intact broadcast file")
+    return NavHeader(alpha=alpha, beta=beta, a0=a0, a1=a1, t_ot=t_ot, wn_t=wn_t, leap_seconds=leap_seconds)  # type: ignore[arg-type]
 
 
 def seconds_of_week(times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -169,15 +191,26 @@ def load(path: str | Path) -> list[Ephemeris]:
     try:
         nav = georinex.load(path)
     except Exception as exc:  # georinex raises many types for a malformed file
-        raise ValueError(f"{path}: not a readable RINEX navigation file ({exc})") from None
+        raise RinexFormatError(f"{path}: not a readable RINEX navigation file ({type(exc).__name__}: {one_line(exc)}); "
+                               "use an intact RINEX 2 GPS broadcast file") from None
+    if "sv" not in nav.coords or "time" not in nav.dims or any(name not in nav for name in _REQUIRED):
+        raise RinexFormatError(f"{path}: not a RINEX 2 GPS navigation file (no satellite records with the broadcast fields); "
+                               "use a GPS broadcast file (brdcDDD0.YYn)")
     out: list[Ephemeris] = []
     for sv in nav.sv.values:
         if not str(sv).startswith("G"):
             continue
+        prn = int(str(sv)[1:]) if str(sv)[1:].isdigit() else -1
+        if not 1 <= prn <= 32:
+            raise RinexFormatError(f"{path}: a record names satellite {str(sv)!r}; GPS PRNs are G01..G32 (fix the record's PRN field)")
         sat = nav.sel(sv=sv).dropna("time", how="all")
         week, sow = seconds_of_week(sat.time.values)
         for k in range(sat.sizes["time"]):
             rec = {name: float(sat[name].values[k]) for name in sat.data_vars}
+            blank = [name for name in _REQUIRED if not np.isfinite(rec[name])]
+            if blank:
+                raise RinexFormatError(f"{path}: the {sv} record of {str(sat.time.values[k])[:19]} has blank or unreadable {', '.join(blank)}; "
+                                       "fix or drop that record")
             fields = {lnav_name: rec[rinex] * factor for rinex, (lnav_name, factor) in _RINEX_FIELDS.items()}
             fit_hours = rec.get("FitIntvl", 0.0)
             fields.update(
@@ -192,15 +225,22 @@ def load(path: str | Path) -> list[Ephemeris]:
                 fit_flag=0 if fit_hours in (0.0, 4.0) or not np.isfinite(fit_hours) else 1,
                 aodo=0,
             )
+            for sf in (1, 2, 3):
+                for name, f in lnav.FIELDS[sf].items():
+                    try:
+                        lnav.raw_value(fields[name], f, name)
+                    except ValueError as exc:
+                        raise RinexFormatError(f"{path}: the {sv} record of {str(sat.time.values[k])[:19]} cannot be broadcast ({one_line(exc)}); "
+                                               "the record is garbled, fix or drop it") from None
             out.append(
                 Ephemeris(
-                    prn=int(str(sv)[1:]), week=int(week[k]), transmit_time=rec["TransTime"],
+                    prn=prn, week=int(week[k]), transmit_time=rec["TransTime"],
                     fit_hours=fit_hours if np.isfinite(fit_hours) else 0.0, fields=fields,
                 )
             )
     out.sort(key=lambda e: (e.prn, e.week, e.t_oc))
     if not out:
-        raise ValueError(f"{path}: no GPS navigation data sets found")
+        raise RinexFormatError(f"{path}: no GPS navigation data sets found; use a GPS broadcast file (brdcDDD0.YYn)")
     return out
 
 

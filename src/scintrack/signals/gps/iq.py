@@ -91,7 +91,8 @@ from pathlib import Path
 import numpy as np
 from scipy import signal
 
-from ...atomic import atomic_target
+from ...atomic import atomic_bytes
+from ...errors import InputError, one_line
 from ...seeding import rng_for
 from .ca_code import CHIP_RATE_HZ, CHIPS, ca_code
 from .jamming import effective_cn0_dbhz, spectral_separation
@@ -112,6 +113,10 @@ SIDECAR_KEYS = ("sample_rate_hz", "centre_frequency_hz", "intermediate_frequency
                 "duration_s", "satellites", "jammer", "seed")
 #: keys the writer fills in
 WRITER_KEYS = ("format", "scale", "scale_rule", "n_samples", "data_file", "sha256", "clipped_values", "quantisation_snr_db")
+
+
+class IQFormatError(InputError):
+    """A recording or its sidecar that :func:`read_recording` cannot accept (missing, truncated, altered)."""
 
 
 def code_rate_hz(doppler_hz: np.ndarray | float) -> np.ndarray | float:
@@ -381,16 +386,7 @@ def sidecar_path(path: str | os.PathLike) -> Path:
 
 
 def _atomic_write(path: Path, payload: bytes) -> None:
-    fd, tmp = atomic_target(path, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(payload)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_bytes(path, payload, fsync=True)
 
 
 def quantise(samples: np.ndarray, scale: float) -> tuple[np.ndarray, int]:
@@ -440,30 +436,42 @@ def write_recording(path: str | os.PathLike, samples: np.ndarray, sidecar: dict,
     return full
 
 
+_F32 = np.finfo(np.float32)
+
+
 def read_recording(path: str | os.PathLike) -> tuple[np.ndarray, dict]:
-    """Samples (complex64, ``int16 / scale``) and sidecar of a recording, after checking format, size and sha256."""
+    """Samples (complex64, ``int16 / scale``) and sidecar of a recording, after checking format, size and sha256.
+
+    A missing, truncated or altered data file or sidecar raises :class:`IQFormatError` (one line naming the file).
+    """
     path = Path(path)
     side = sidecar_path(path)
     if not path.is_file():
-        raise ValueError(f"recording data file {path} does not exist")
+        raise IQFormatError(f"recording data file {path} does not exist")
     if not side.is_file():
-        raise ValueError(f"recording {path} has no sidecar {side}; write recordings with iq.write_recording")
+        raise IQFormatError(f"recording {path} has no sidecar {side}; write recordings with iq.write_recording")
     try:
-        meta = json.loads(side.read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"sidecar {side} is not valid JSON ({exc})") from exc
+        meta = json.loads(side.read_bytes())
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:  # RecursionError: absurdly deep nesting
+        raise IQFormatError(f"sidecar {side} is not valid JSON ({one_line(exc)}); rewrite it with iq.write_recording") from None
+    if not isinstance(meta, dict):
+        raise IQFormatError(f"sidecar {side} holds a JSON {type(meta).__name__}, not an object; rewrite it with iq.write_recording")
     missing = [key for key in (*SIDECAR_KEYS, *WRITER_KEYS) if key not in meta]
     if missing:
-        raise ValueError(f"sidecar {side} lacks {missing}")
+        raise IQFormatError(f"sidecar {side} lacks {missing}")
     if meta["format"] != FORMAT:
-        raise ValueError(f"{side}: format {meta['format']!r} is not {FORMAT!r}")
-    if not (isinstance(meta["scale"], int | float) and meta["scale"] > 0):
-        raise ValueError(f"{side}: scale must be a positive number (got {meta['scale']!r})")
+        raise IQFormatError(f"{side}: format {meta['format']!r} is not {FORMAT!r}")
+    scale = meta["scale"]
+    if not (isinstance(scale, int | float) and not isinstance(scale, bool) and _F32.tiny <= scale <= _F32.max):
+        raise IQFormatError(f"{side}: scale must be a positive number (got {scale!r})")
+    n = meta["n_samples"]
+    if not (isinstance(n, int) and not isinstance(n, bool) and n >= 0):
+        raise IQFormatError(f"{side}: n_samples must be a non-negative integer (got {n!r})")
     payload = path.read_bytes()
-    if len(payload) != 4 * meta["n_samples"]:
-        raise ValueError(f"{path} holds {len(payload)} bytes but {side} says {meta['n_samples']} samples ({4 * meta['n_samples']} bytes)")
+    if len(payload) != 4 * n:
+        raise IQFormatError(f"{path} holds {len(payload)} bytes but {side} says {n} samples ({4 * n} bytes)")
     digest = hashlib.sha256(payload).hexdigest()
     if digest != meta["sha256"]:
-        raise ValueError(f"{path} is corrupted or was changed: sha256 {digest} != {meta['sha256']} in {side}")
-    iq = np.frombuffer(payload, dtype="<i2").astype(np.float32) / np.float32(meta["scale"])
+        raise IQFormatError(f"{path} is corrupted or was changed: sha256 {digest} != {meta['sha256']!r} in {side}")
+    iq = np.frombuffer(payload, dtype="<i2").astype(np.float32) / np.float32(scale)
     return iq.view(np.complex64), meta

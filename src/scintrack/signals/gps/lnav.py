@@ -24,13 +24,18 @@ The TLM/HOW header (:func:`header_bits`) and the generic field packing
 (:func:`pack_fields`, :func:`unpack_fields`) are shared with subframes 4 and 5,
 whose 25 pages are in :mod:`scintrack.signals.gps.lnav_pages`; the whole
 transmitted stream with data-set cutovers and uploads is in
-:mod:`scintrack.signals.gps.message`.
+:mod:`scintrack.signals.gps.message`.  Received bits that are not a stream of
+0/1 values raise :class:`LNAVDecodeError`; bits that are 0/1 but fail parity
+are data (the decoder reports the parity verdicts), not an error.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+
+from ...errors import InputError
 
 PREAMBLE = 0b10001011
 WORD_BITS = 30
@@ -45,6 +50,10 @@ PARITY_TAPS: tuple[tuple[int, tuple[int, ...]], ...] = (
     (30, (1, 3, 5, 6, 7, 9, 10, 14, 15, 16, 17, 18, 21, 22, 24)),
     (29, (3, 5, 6, 8, 9, 10, 11, 13, 15, 19, 22, 23, 24)),
 )
+
+
+class LNAVDecodeError(InputError):
+    """Received LNAV bits that are not a stream of 0/1 values (or not a whole subframe where one is needed)."""
 
 
 @dataclass(frozen=True)
@@ -214,10 +223,20 @@ def pack_fields(bits: list[int], table: Mapping[str, Field], values: Mapping[str
     if missing:
         raise ValueError(f"{where}: missing fields {missing}")
     for name, field in table.items():
-        raw = int(values[name]) if field.scale == 0 and not field.signed else quantise(float(values[name]), field)
-        if not 0 <= raw < 1 << field.bits:
-            raise ValueError(f"{where}: {name} = {values[name]!r} does not fit in {field.bits} bits")
-        _pack(bits, field, raw)
+        _pack(bits, field, raw_value(values[name], field, f"{where}: {name}"))
+
+
+def raw_value(value: float, field: Field, where: str = "field") -> int:
+    """The integer ``field`` carries for ``value`` (unscaled unsigned fields as integers); ValueError if it does not fit."""
+    if not math.isfinite(value):
+        raise ValueError(f"{where} = {value!r} is not a finite number")
+    try:
+        raw = int(value) if field.scale == 0 and not field.signed else quantise(float(value), field)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    if not 0 <= raw < 1 << field.bits:
+        raise ValueError(f"{where} = {value!r} does not fit in {field.bits} bits")
+    return raw
 
 
 def unpack_fields(source: Sequence[int], table: Mapping[str, Field]) -> dict[str, float]:
@@ -256,6 +275,8 @@ def encode_subframe(source: Sequence[int], d29s: int = 0, d30s: int = 0) -> list
 
 def decode_subframe(sent: Sequence[int], d29s: int = 0, d30s: int = 0) -> tuple[list[int], list[bool]]:
     """Source bits (parity positions zeroed) and the parity verdict of each word."""
+    if len(sent) != SUBFRAME_BITS:
+        raise LNAVDecodeError(f"sent: a subframe is {SUBFRAME_BITS} bits, got {len(sent)}; pass one whole subframe")
     source = [0] * SUBFRAME_BITS
     ok = []
     for w in range(10):

@@ -74,6 +74,7 @@ import numpy as np
 
 from . import lnav, lnav_pages
 from .ephemeris import SECONDS_PER_WEEK, DataSetFields, Ephemeris, NavHeader
+from .lnav import LNAVDecodeError
 from .orbit import week_crossover
 
 FRAME_S = 30
@@ -342,6 +343,20 @@ def _sync(x: np.ndarray) -> tuple[int, int] | None:
     return best
 
 
+def _bit_array(bits: Sequence[int]) -> np.ndarray:
+    """``bits`` as an int8 array, or :class:`lnav.LNAVDecodeError` if it is not a 1-D stream of 0/1 values."""
+    try:
+        x = np.asarray(bits)
+    except (ValueError, TypeError) as exc:  # ragged or unconvertible
+        raise LNAVDecodeError(f"bits: not an array of bits ({type(exc).__name__}); pass a 1-D sequence of 0/1 values") from None
+    if x.ndim != 1 or (x.size and x.dtype.kind not in "biuf"):
+        raise LNAVDecodeError(f"bits: expected a 1-D sequence of 0/1 values, got shape {x.shape} of {x.dtype}; pass the hard-decided data bits")
+    bad = np.flatnonzero((x != 0) & (x != 1))
+    if bad.size:
+        raise LNAVDecodeError(f"bits: value {x[bad[0]]!r} at index {int(bad[0])} is not 0 or 1; pass hard-decided 0/1 data bits (not +-1 or soft values)")
+    return x.astype(np.int8)
+
+
 def decode_message(bits: Sequence[int]) -> list[DecodedSubframe]:
     """Find the subframes of a received 0/1 bit stream (any start, either polarity) and decode them.
 
@@ -349,9 +364,11 @@ def decode_message(bits: Sequence[int]) -> list[DecodedSubframe]:
     preambles are followed by a TLM and HOW that pass parity; then every whole
     subframe from there is decoded with the parity chain carried from the
     bits before it.  Fields: :func:`lnav.read_fields` for subframes 1-3,
-    :func:`lnav_pages.read_page` for 4-5 (page from the HOW time).
+    :func:`lnav_pages.read_page` for 4-5 (page from the HOW time).  Random
+    bits give subframes with failed parity (or none), not an error;
+    anything but a 1-D stream of 0/1 raises :class:`LNAVDecodeError`.
     """
-    x = np.asarray(bits, dtype=np.int8) & 1
+    x = _bit_array(bits)
     found = _sync(x)
     if found is None:
         return []
