@@ -81,9 +81,9 @@ def test_kill_mid_write_and_resume(tmp_path):
     work = tmp_path / "work"
 
     # 1. SIGKILL the process of one job while it writes its output (after one training set is done).
-    proc = subprocess.Popen(_cmd(work), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=_env(hold=2.0))
+    proc = subprocess.Popen(_cmd(work), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=_env(hold=1.0))
     first = _wait_for_temp(work, proc, "data/synthetic")
-    time.sleep(2.5)  # the first training set is renamed into place; wait for the second job's write
+    time.sleep(1.3)  # the first training set is renamed into place; wait for the second job's write
     end = time.monotonic() + 120
     while True:
         temps = [p for p in _temps(work) if p != first]

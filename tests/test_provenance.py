@@ -101,7 +101,7 @@ def test_archive_rule_refuses_when_results_were_not_rerun(smoke_run, tmp_path):
     # mtime-only triggers keep the old results: the archive must refuse them rather than pack a lie
     proc = run_targets(smoke_run, "archive", "--forcerun", "archive", "--rerun-triggers", "mtime", "-q", overlays=[ALLOW_DIRTY, overlay])
     assert proc.returncode != 0
-    lines = [line for line in (proc.stdout + proc.stderr).splitlines() if line.startswith("archive: results/")]
+    lines = [line for line in (proc.stdout + proc.stderr).splitlines() if line.startswith("error: archive: results/")]
     assert lines and "rerun snakemake with this config" in lines[0], proc.stderr[-2000:]
 
 
