@@ -225,8 +225,16 @@ def test_figures_get_the_note_as_a_footer_and_tables_as_a_note_line(tmp_path):
     add_footer(fig, "")
     assert fig.texts == []
     note = "Diverged (numerical guard): KF 1/4 trials on s (first at 12.3 s)."
-    add_footer(fig, note)
-    assert [t.get_text() for t in fig.texts] == [note]
+    ax = fig.axes[0]
+    ax.set_xlabel("time [s]")
+    fig.tight_layout()
+    add_footer(fig, note * 4)  # long enough to wrap
+    assert len(fig.texts) == 1 and fig.texts[0].get_text().replace("\n", " ") == (note * 4).replace("\n", " ").strip()
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    footer = fig.texts[0].get_window_extent(renderer)
+    assert footer.y1 <= ax.get_tightbbox(renderer).y0 + 1  # below the axis label, not over it
+    assert footer.x1 <= fig.bbox.x1 + 1  # wrapped to the figure's width
     save_figure(fig, [tmp_path / "f.png"])
     assert join_notes("Own note.", "") == "Own note." and join_notes("Own note.", note) == f"Own note. {note}" and join_notes("", note) == note
     import pandas as pd

@@ -77,13 +77,34 @@ def symlog_axis(ax, linthresh: float) -> None:
     ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
 
 
-def add_footer(fig, text: str, width: int = 180) -> None:
-    """Small text at the bottom edge of ``fig`` (nothing for ""): the numerical-guard note of the results a
+def add_footer(fig, text: str, fontsize: float = 5.5) -> None:
+    """Small text below everything else in ``fig`` (nothing for ""): the numerical-guard note of the results a
     figure is drawn from (:func:`scintrack.experiments.guards.divergence_note`), added to every figure by
-    the render rule, so no figure drawn from a diverged run or from nan-aware S4 means can hide it."""
+    the render rule, so no figure drawn from a diverged run or from nan-aware S4 means can hide it.
+
+    The note is wrapped to the figure's width and the figure is made taller by the note's height, with
+    every axes and figure text moved up by that much, so it never covers an axis label.
+    """
     if not text:
         return
     import textwrap
 
-    lines = textwrap.wrap(text, width)
-    fig.text(0.005, 0.002, "\n".join(lines), fontsize=5.5, ha="left", va="bottom", color="tab:red")
+    width_in, height_in = fig.get_size_inches()
+    chars = max(int(width_in * 72 / (0.55 * fontsize)) - 2, 40)  # average glyph ~0.55 em
+    lines = textwrap.wrap(text, chars)
+    extra = (len(lines) * 1.25 * fontsize + 6) / 72  # inches
+    total = height_in + extra
+
+    def lift(y: float) -> float:
+        return (y * height_in + extra) / total
+
+    for ax in fig.axes:
+        pos = ax.get_position()
+        ax.set_position([pos.x0, lift(pos.y0), pos.width, pos.height * height_in / total])
+    texts = list(fig.texts) + ([fig._suptitle] if getattr(fig, "_suptitle", None) is not None else [])
+    for t in {id(t): t for t in texts}.values():
+        if t.get_transform() == fig.transFigure:
+            x, y = t.get_position()
+            t.set_position((x, lift(y)))
+    fig.set_size_inches(width_in, total)
+    fig.text(0.005, 3 / 72 / total, "\n".join(lines), fontsize=fontsize, ha="left", va="bottom", color="tab:red")
