@@ -33,6 +33,18 @@ def smoke_run(tmp_path_factory) -> Path:
     return workdir
 
 
+def experiment_jobs(experiments) -> dict[str, int]:
+    """Jobs that a set of experiment specs plans: per scenario, ``shards`` tracking_shard jobs and one
+    tracking_merge when ``shards > 1``, one tracking_single job otherwise (rules with no job left out)."""
+    experiments = list(experiments)
+    multi = [e for e in experiments if int(e["shards"]) > 1]
+    single = [e for e in experiments if int(e["shards"]) == 1]
+    jobs = {"tracking_shard": sum(len(e["scenarios"]) * int(e["shards"]) for e in multi),
+            "tracking_merge": sum(len(e["scenarios"]) for e in multi),
+            "tracking_single": sum(len(e["scenarios"]) for e in single)}
+    return {rule: n for rule, n in jobs.items() if n}
+
+
 def run_targets(workdir: Path, *targets: str, overlays=(), timeout: float = 600) -> subprocess.CompletedProcess:
     """Build ``targets`` (rule names or files; before --configfile, which takes every following word)."""
     cmd = [SNAKEMAKE, *targets, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--cores", "2",

@@ -18,7 +18,7 @@ import subprocess
 
 import pytest
 import yaml
-from conftest import REPO, SNAKEMAKE, run_targets
+from conftest import REPO, SNAKEMAKE, experiment_jobs, run_targets
 
 from scintrack.archive.build import ArchiveRefused, check_results_config
 from scintrack.archive.tarball import SUMS, sums_text
@@ -54,7 +54,7 @@ def test_fresh_clone_plans_the_whole_dag_for_archive(tmp_path):
         "csm_training_set": len(config["ar_training"]["s4"]), "ar_fit": len(config["ar_training"]["s4"]), "ar_lut": 1, "ar_diagnostics": 1,
         "surrogate_event": len(config["real_traces"]["events"]), "trace_diagnostics": 1,
         **{r: len(config["real_traces"]["events"]) for r in ("trace_ar_models", "trace_static", "trace_dynamics")},
-        "tracking_merge": sum(len(e["scenarios"]) for e in exps), "tracking_shard": sum(len(e["scenarios"]) * e["shards"] for e in exps),
+        **experiment_jobs(exps),
         "gps_jamming_dataset": 1, "gps_iq_recording": 1, "zhao_cn0_estimates": 1, "zhao_iq_spectrum": 1,
         "zhao_channel": len(config["gps_jamming"]["prns"]), "zhao_receiver": 1,
         "zhao_cn0_sweep_point": len(config["zhao_receiver"]["cn0_sweep"]["cn0_dbhz"]),

@@ -63,7 +63,7 @@ def test_one_core_build_equals_the_two_core_smoke_run(smoke_run, one_core_run):
     workdir, computing = one_core_run
     covered = set(_summary(workdir))
     assert set(computing) - {"tracking_shard"} <= covered, set(computing) - covered  # shards are temp: seen through their merges
-    assert "tracking_merge" in covered and len(computing) >= 20
+    assert {"tracking_merge", "tracking_single"} <= covered and len(computing) >= 20
     results = _files(workdir, "results", ["*.nc"])
     assert len(results) > 10
     for rel in results:

@@ -11,11 +11,13 @@ each job counts (issue 14).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import xarray as xr
 
+from ..io import provenance
 from .metrics import rmse_with_ci, steady_rmse
 
 MONITORS = ("phi3", "p", "weight", "T")  # on-line SAKF quantities averaged over trials (T: median)
@@ -103,3 +105,16 @@ def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:
                 "slip_events_total", "time_in_lock", *optional, *guard_keys):
         out[key].attrs.update(first[key].attrs)
     return out
+
+
+def merged_result(shards: Sequence[xr.Dataset], run: Mapping[str, Any], inputs: Sequence[str]) -> xr.Dataset:
+    """The result of an (experiment, scenario): its shards merged (:func:`.merge.merge`), with provenance and title."""
+    result = merge(shards)
+    result.attrs.update(provenance(config=run, seed=int(run["seed"]), inputs=list(inputs), extra={"experiment": run["experiment"]}))
+    if "trace" in run["scenario"]:
+        source = result.attrs.get("trace_source", "unknown")
+        data = "SYNTHETIC SURROGATE scintillation trace" if source == "surrogate" else f"{source} scintillation trace"
+    else:
+        data = "synthetic CSM data" if run["scenario"].get("segments") else "no scintillation"
+    result.attrs["title"] = f"{run['experiment']}: {run['scenario_name']} ({int(result['n_trials'])} trials, {data})"
+    return result

@@ -87,7 +87,7 @@ from ..trackers import registry
 from ..trackers.base import TrackerContext
 from . import guards
 from .merge import MONITORS, merge  # noqa: F401  (merge: re-exported; it lives in .merge, light to import)
-from .metrics import slip_counts, unwrapped_error, wrap
+from .metrics import slip_counts, unit_phasor, unwrapped_error, wrap
 from .scenario import acquisition, effective_tracking, simulate
 
 KINDS = ("wrapped", "unwrapped")
@@ -104,7 +104,7 @@ def block_mean(a: np.ndarray, block: int) -> np.ndarray:
 
 def time_in_lock(y: np.ndarray, total_hat: np.ndarray, per: int, threshold: float, start: int) -> np.ndarray:
     """Fraction of lock-detector blocks in lock from epoch ``start`` on, per trial (see the module docstring)."""
-    r = y[:, start:] * np.exp(-1j * total_hat[:, start:])
+    r = y[:, start:] * unit_phasor(total_hat[:, start:], -1.0)
     nb = r.shape[1] // per
     if nb == 0:
         return np.full(y.shape[0], np.nan)

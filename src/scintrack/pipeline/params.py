@@ -152,6 +152,15 @@ def floors(config: Mapping[str, Any], scenario: str) -> dict[str, Any]:
     }
 
 
+def experiment_names_regex(config: Mapping[str, Any], *, multi_shard: bool) -> str:
+    """Regex matching exactly the experiments with ``shards > 1`` (``multi_shard``) or ``shards == 1``
+    (the ``{experiment}`` wildcard constraint of the rules that run them; never matches when there are none)."""
+    import re
+
+    names = sorted(n for n, e in config["experiments"].items() if (int(e["shards"]) > 1) == multi_shard)
+    return "|".join(re.escape(n) for n in names) if names else "(?!)"
+
+
 def shard_trials(config: Mapping[str, Any], name: str, shard: int) -> list[int]:
     """Contiguous block of trial indices of one shard."""
     spec = config["experiments"][name]

@@ -927,3 +927,178 @@ def window_push_lanes(b1, b2, pos, s1, s2, count, v1, v2):
         lane_store(s1, 0, t1)
         lane_store(s2, 0, t2)
     return pos, count
+
+
+# --- lanes: the discriminator KFs (kf, akf, akf_ar; Susi's AKF / SAKF PLL) ------------------
+#
+# The one-trial blocks above (predict, scalar_update, weighted_scalar_update, the
+# discriminators, window_push + m2m4_split) on LANES trials at once, for kernels that run
+# trials in blocks like the AEKF-AR.  Per lane every operation is the scalar block's, in
+# the same order and with the same operands (the zero entries of H and the unit entries
+# of F included: an inf or NaN meets them as it did), so each lane gets the bits of the
+# scalar call; the transcendental functions (cos, sin, atan2, atan) are called per lane,
+# the same libm function as the scalar block.
+
+
+@intrinsic
+def lanes_any_zero(typingctx, v):
+    """True when some lane of ``v`` (Lanes) is +-0: the zero-divisor test of numba's scalar division, on every lane."""
+    if v == lanes_t:
+
+        def codegen(context, builder, sig, args):
+            mask = builder.fcmp_ordered("==", args[0], llvm_ir.Constant(_VEC, [0.0] * LANES))
+            bits = builder.bitcast(mask, llvm_ir.IntType(LANES))
+            return builder.icmp_unsigned("!=", bits, llvm_ir.Constant(llvm_ir.IntType(LANES), 0))
+
+        return types.boolean(v), codegen
+    return None
+
+
+@njit(cache=True)
+def sparse_predict_lanes(x, P, xn, FP, Q, rows, cols, vals, count):
+    """:func:`predict` without kappa on lanes: ``x <- F x``, ``P <- F P F^T + Q``, F given by its non-zeros.
+
+    ``x`` (n, LANES) and ``P`` (n, n, LANES) are updated in place; ``Q``
+    (n, n, LANES): each lane's process noise; ``rows``, ``cols``, ``vals``,
+    ``count``: the non-zeros of F (:func:`nonzeros`, one set, common to the
+    lanes); work arrays ``xn`` (n, LANES), ``FP`` (n, n, LANES).  Per lane the
+    sums of :func:`predict` (``use_kap`` False): each x entry from 0.0, F P from
+    0.0, P from Q, accumulated over the same non-zeros in the same order (unit
+    entries of F multiplied, as there), so x and P are the scalar block's bit for bit.
+    """
+    L = LANES
+    n = x.shape[0]
+    if x.shape != (n, L) or xn.shape != (n, L) or P.shape != (n, n, L) or FP.shape != (n, n, L) or Q.shape != (n, n, L):
+        raise ValueError("sparse_predict_lanes: arrays must be x, xn (n, LANES), P, FP, Q (n, n, LANES)")
+    zero = lane_splat(0.0)
+    for a in range(n):
+        lane_store(xn, a * L, zero)
+    for e in range(n * n):
+        lane_store(FP, e * L, zero)
+    for m in range(count):
+        a, c, v = rows[m], cols[m], vals[m]
+        lane_store(xn, a * L, lane_load(xn, a * L) + v * lane_load(x, c * L))
+        for b in range(n):
+            o = (a * n + b) * L
+            lane_store(FP, o, lane_load(FP, o) + v * lane_load(P, (c * n + b) * L))
+    for a in range(n):
+        lane_store(x, a * L, lane_load(xn, a * L))
+    for e in range(n * n):
+        lane_store(P, e * L, lane_load(Q, e * L))
+    for m in range(count):
+        b, c, v = rows[m], cols[m], vals[m]
+        for a in range(n):
+            o = (a * n + b) * L
+            lane_store(P, o, lane_load(P, o) + v * lane_load(FP, (a * n + c) * L))
+
+
+@njit(cache=True)
+def innovation_terms_lanes(P, H, R, PH):
+    """:func:`innovation_terms` on lanes: ``PH = P H^T`` (n, LANES) written, ``S = H P H^T + R`` returned (Lanes).
+
+    ``P`` (n, n, LANES), ``H`` (n,) common to the lanes, ``R`` (LANES,)."""
+    L = LANES
+    n = PH.shape[0]
+    if P.shape != (n, n, L) or PH.shape != (n, L) or H.shape != (n,) or R.shape != (L,):
+        raise ValueError("innovation_terms_lanes: arrays must be P (n, n, LANES), H (n,), R (LANES,), PH (n, LANES)")
+    S = lane_load(R, 0)
+    for a in range(n):
+        acc = lane_splat(0.0)
+        for b in range(n):
+            acc = acc + lane_load(P, (a * n + b) * L) * H[b]
+        lane_store(PH, a * L, acc)
+        S = S + H[a] * acc
+    return S
+
+
+@njit(cache=True)
+def scalar_update_lanes(x, P, PH, H, R, nu):
+    """:func:`scalar_update` on lanes: S = H P H^T + R, K = P H^T / S, x += K nu, P -= K (P H^T)^T.
+
+    ``x`` (n, LANES), ``P`` (n, n, LANES) in place; ``H`` (n,) common; ``R``,
+    ``nu`` (LANES,); work array ``PH`` (n, LANES).  An exact-zero S on any lane
+    raises ZeroDivisionError, as the scalar division does."""
+    L = LANES
+    n = x.shape[0]
+    if x.shape != (n, L) or nu.shape != (L,):
+        raise ValueError("scalar_update_lanes: arrays must be x (n, LANES), nu (LANES,)")
+    S = innovation_terms_lanes(P, H, R, PH)
+    if lanes_any_zero(S):
+        raise ZeroDivisionError("division by zero")
+    e = lane_load(nu, 0)
+    for a in range(n):
+        lane_store(x, a * L, lane_load(x, a * L) + lane_load(PH, a * L) / S * e)
+    for a in range(n):
+        ka = lane_load(PH, a * L) / S
+        o = a * n * L
+        for b in range(n):
+            lane_store(P, o + b * L, lane_load(P, o + b * L) - ka * lane_load(PH, b * L))
+
+
+@njit(cache=True)
+def weighted_scalar_update_lanes(x, P, PH, H, R, nu, w):
+    """:func:`weighted_scalar_update` on lanes (gain weighted by ``w``, Joseph covariance); ``w`` (LANES,),
+    otherwise the arrays of :func:`scalar_update_lanes`.  An exact-zero S on any lane raises ZeroDivisionError."""
+    L = LANES
+    n = x.shape[0]
+    if x.shape != (n, L) or nu.shape != (L,) or w.shape != (L,):
+        raise ValueError("weighted_scalar_update_lanes: arrays must be x (n, LANES), nu, w (LANES,)")
+    S = innovation_terms_lanes(P, H, R, PH)
+    if lanes_any_zero(S):
+        raise ZeroDivisionError("division by zero")
+    wv = lane_load(w, 0)
+    g = (2.0 * wv - wv * wv) / S
+    e = lane_load(nu, 0)
+    for a in range(n):
+        lane_store(x, a * L, lane_load(x, a * L) + wv * lane_load(PH, a * L) / S * e)
+    for a in range(n):
+        o = a * n * L
+        gpa = g * lane_load(PH, a * L)
+        for b in range(n):
+            lane_store(P, o + b * L, lane_load(P, o + b * L) - gpa * lane_load(PH, b * L))
+
+
+@njit(cache=True)
+def atan2_discriminator_lanes(yr, yi, phase, out):
+    """``out[ln] = atan2_discriminator(yr[ln], yi[ln], phase[ln])`` on every lane (libm per lane); arrays (LANES,)."""
+    L = LANES
+    if yr.shape != (L,) or yi.shape != (L,) or phase.shape != (L,) or out.shape != (L,):
+        raise ValueError("atan2_discriminator_lanes: arrays must be (LANES,)")
+    for ln in range(L):
+        out[ln] = atan2_discriminator(yr[ln], yi[ln], phase[ln])
+
+
+@njit(cache=True)
+def atan_discriminator_lanes(yr, yi, phase, out):
+    """``out[ln] = atan_discriminator(yr[ln], yi[ln], phase[ln])`` on every lane (libm per lane); arrays (LANES,)."""
+    L = LANES
+    if yr.shape != (L,) or yi.shape != (L,) or phase.shape != (L,) or out.shape != (L,):
+        raise ValueError("atan_discriminator_lanes: arrays must be (LANES,)")
+    for ln in range(L):
+        out[ln] = atan_discriminator(yr[ln], yi[ln], phase[ln])
+
+
+@njit(cache=True)
+def m2m4_lanes(b2, b4, pos, s2, s4, count, p2, p4, min_epochs, prior_signal, prior_noise, floor_fraction, sig, noi):
+    """The M2M4 window of the discriminator KFs on lanes; returns (pos, count).
+
+    Pushes ``p2`` (LANES,: each lane's ``|P|^2``) and ``p4 = p2 * p2`` (written)
+    into the ring buffers ``b2``, ``b4`` (window, LANES) with running sums ``s2``,
+    ``s4`` (LANES,) (:func:`window_push_lanes`), then writes ``sig``, ``noi``
+    (LANES,): the priors while ``count < min_epochs``, else :func:`m2m4_split`
+    of the window means -- per lane the scalar kernels' ``window_push`` and split.
+    """
+    L = LANES
+    if p2.shape != (L,) or p4.shape != (L,) or sig.shape != (L,) or noi.shape != (L,):
+        raise ValueError("m2m4_lanes: p2, p4, sig, noi must be (LANES,)")
+    v = lane_load(p2, 0)
+    lane_store(p4, 0, v * v)
+    pos, count = window_push_lanes(b2, b4, pos, s2, s4, count, p2, p4)
+    if count < min_epochs:
+        lane_store(sig, 0, lane_splat(prior_signal))
+        lane_store(noi, 0, lane_splat(prior_noise))
+    else:
+        sg, nz = m2m4_split(lane_load(s2, 0) / count, lane_load(s4, 0) / count, floor_fraction)
+        lane_store(sig, 0, sg)
+        lane_store(noi, 0, nz)
+    return pos, count

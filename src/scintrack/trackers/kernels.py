@@ -1,5 +1,5 @@
-"""Compiled (numba) loops that are not trackers: the cycle-slip counter of
-:mod:`scintrack.experiments.metrics`.
+"""Compiled (numba) loops that are not trackers: the cycle-slip counter and
+the unit phasors of :mod:`scintrack.experiments.metrics`.
 
 The trackers' kernels live in their own modules (:mod:`.pll`, :mod:`.kf`,
 :mod:`.aekf_ar`) and are made of the building blocks in :mod:`.blocks`.
@@ -39,3 +39,16 @@ def cycle_slip_kernel(e, hysteresis, settle):
                 if calm >= settle:
                     in_event = False
     return cycles, events
+
+
+@njit(cache=True)
+def sin_cos_kernel(e, s, c):
+    """``s = sin(e)``, ``c = cos(e)`` element by element (1-D, contiguous).
+
+    The same libm calls that numpy's complex ``exp`` makes for a purely
+    imaginary argument, so ``c + j s`` equals ``numpy.exp(1j * e)`` bit for
+    bit (``tests/test_speed_paths.py``), without the two complex temporaries.
+    """
+    for i in range(e.size):
+        s[i] = math.sin(e[i])
+        c[i] = math.cos(e[i])
