@@ -220,3 +220,18 @@ def test_single_job_result_is_the_shard_plus_merge_result(tmp_path):
     for name in one.variables:
         assert one[name].dtype == two[name].dtype and np.array_equal(one[name].values, two[name].values, equal_nan=one[name].dtype.kind in "fc"), name
     assert one.attrs["config_sha256"] == two.attrs["config_sha256"] and one.attrs["title"] == two.attrs["title"]
+
+
+def test_single_and_multi_shard_constraints_split_the_experiments_exactly():
+    import re
+
+    from scintrack.pipeline import params
+
+    config = {"experiments": {"a": {"shards": 1}, "a.b": {"shards": 2}, "ab": {"shards": 1}, "c+": {"shards": 3}}}
+    single, multi = (params.experiment_names_regex(config, multi_shard=m) for m in (False, True))
+    for name, spec in config["experiments"].items():
+        assert bool(re.fullmatch(single, name)) == (spec["shards"] == 1), name
+        assert bool(re.fullmatch(multi, name)) == (spec["shards"] > 1), name
+    assert not re.fullmatch(single, "axb") and not re.fullmatch(multi, "c")  # names are escaped, not patterns
+    none = params.experiment_names_regex({"experiments": {"a": {"shards": 1}}}, multi_shard=True)
+    assert not any(re.fullmatch(none, s) for s in ("", "a", "(?!)"))

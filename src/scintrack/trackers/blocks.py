@@ -52,6 +52,13 @@ numba lowers the scalar ones, so the scalar blocks (``m2m4_split``,
 ``window_mean_var``, ``s4_corrected``, ...) compile unchanged for ``Lanes``
 arguments and give, lane by lane, the bits of the scalar call
 (``tests/test_trackers.py::test_lane_blocks_are_the_scalar_blocks_bit_for_bit``).
+The discriminator KFs, the Susi KF PLLs and the PLL run on lanes too (issue 14,
+third round), with the lane forms of the blocks above: :func:`sparse_predict_lanes`
+(:func:`predict`), :func:`innovation_terms_lanes`, :func:`scalar_update_lanes`,
+:func:`weighted_scalar_update_lanes`, :func:`atan2_discriminator_lanes` and
+:func:`atan_discriminator_lanes` (the scalar discriminator called per lane: the
+same libm calls), :func:`m2m4_lanes` (on :func:`window_push_lanes`), and
+:func:`lanes_any_zero` (the scalar division's ZeroDivisionError on any lane).
 """
 
 from __future__ import annotations
