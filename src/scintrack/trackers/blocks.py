@@ -57,7 +57,8 @@ third round), with the lane forms of the blocks above: :func:`sparse_predict_lan
 (:func:`predict`), :func:`innovation_terms_lanes`, :func:`scalar_update_lanes`,
 :func:`weighted_scalar_update_lanes`, :func:`atan2_discriminator_lanes` and
 :func:`atan_discriminator_lanes` (the scalar discriminator called per lane: the
-same libm calls), :func:`m2m4_lanes` (on :func:`window_push_lanes`), and
+same libm calls; with the gather of the epoch's prompts: :func:`prompt_discriminator_lanes`),
+:func:`m2m4_lanes` (on :func:`window_push_lanes`), and
 :func:`lanes_any_zero` (the scalar division's ZeroDivisionError on any lane).
 """
 
@@ -1083,6 +1084,19 @@ def atan_discriminator_lanes(yr, yi, phase, out):
         raise ValueError("atan_discriminator_lanes: arrays must be (LANES,)")
     for ln in range(L):
         out[ln] = atan_discriminator(yr[ln], yi[ln], phase[ln])
+
+
+@njit(cache=True)
+def prompt_discriminator_lanes(y, trial, i, phase, costas, yr, yi, out):
+    """Epoch ``i`` of every lane's trial, ``y[trial[ln], i]``, into ``yr``/``yi`` (LANES,) and its discriminator
+    against ``phase`` into ``out``: :func:`atan_discriminator` (Costas, ``costas``) or :func:`atan2_discriminator`."""
+    for ln in range(LANES):
+        v = y[trial[ln], i]
+        yr[ln], yi[ln] = v.real, v.imag
+    if costas:
+        atan_discriminator_lanes(yr, yi, phase, out)
+    else:
+        atan2_discriminator_lanes(yr, yi, phase, out)
 
 
 @njit(cache=True)

@@ -162,10 +162,7 @@ def kf_kernel(y, prm):
             for a in range(n):
                 ph = ph + prm.H[a] * lane_load(x, a * L)
             lane_store(phase, 0, ph)
-            for ln in range(L):
-                v = y[trial[ln], i]
-                yr[ln], yi[ln] = v.real, v.imag
-            blocks.atan2_discriminator_lanes(yr, yi, phase, nu)
+            blocks.prompt_discriminator_lanes(y, trial, i, phase, False, yr, yi, nu)
             if prm.adaptive:
                 vr, vi = lane_load(yr, 0), lane_load(yi, 0)
                 lane_store(p2, 0, vr * vr + vi * vi)

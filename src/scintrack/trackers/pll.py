@@ -93,13 +93,7 @@ def pll_kernel(y, prm):
             trial[ln] = t
             phase[ln], v[ln], w[ln] = prm.phase0[t], prm.v0[t], prm.w0[t]
         for i in range(k):
-            for ln in range(L):
-                c = y[trial[ln], i]
-                yr[ln], yi[ln] = c.real, c.imag
-            if prm.costas:
-                blocks.atan_discriminator_lanes(yr, yi, phase, e)
-            else:
-                blocks.atan2_discriminator_lanes(yr, yi, phase, e)
+            blocks.prompt_discriminator_lanes(y, trial, i, phase, prm.costas, yr, yi, e)
             for ln in range(m):
                 t = trial[ln]
                 out[t, i] = phase[ln]

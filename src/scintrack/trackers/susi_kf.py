@@ -229,13 +229,7 @@ def susi_kernel(y, i0, i1, prm, st, s_phi, s_f, weight, out, innov, freq, r_out,
         for i in range(i0, i1):
             if i > 0:
                 blocks.sparse_predict_lanes(x, P, xn, FP, Q, rows, cols, vals, nnz)
-            for ln in range(L):
-                v = y[trial[ln], i]
-                yr[ln], yi[ln] = v.real, v.imag
-            if prm.costas:
-                blocks.atan_discriminator_lanes(yr, yi, phase, nu)
-            else:
-                blocks.atan2_discriminator_lanes(yr, yi, phase, nu)
+            blocks.prompt_discriminator_lanes(y, trial, i, phase, prm.costas, yr, yi, nu)
             if prm.adaptive:
                 vr, vi = lane_load(yr, 0), lane_load(yi, 0)
                 lane_store(p2, 0, vr * vr + vi * vi)
