@@ -57,6 +57,7 @@ from ..models.lut import scintillation_ar
 from ..signals.correlator import complex_noise, noise_power, prompts
 from ..signals.csm import Segment, generate_csm, generate_csm_profile
 from ..signals.dynamics import initial_phases, third_order_phase
+from .metrics import wrap
 
 
 @dataclass
@@ -198,7 +199,7 @@ def simulate(
         real, s4_t, tau0_t = generate_csm_profile(seed=seed, name=f"scenario/{name}/csm", trials=trials, n_epochs=n_epochs, ts=ts, segments=segs, nspa=nspa, warmup=warmup)
         rho, theta_s = real.rho, real.theta
     if scenario.get("csm_phase", "unwrapped") == "wrapped":
-        theta_s = np.angle(np.exp(1j * theta_s))
+        theta_s = wrap(theta_s)
     s2 = noise_power(cn0, ts, amp)
     noise = complex_noise(seed, f"scenario/{name}/noise", trials, n_epochs, s2)
     y = prompts(theta_d + theta_s, rho, noise, amp)

@@ -219,9 +219,9 @@ def aekf_kernel(y, prm):
     s4_use = blocks.lanes_empty((L,))  # the last estimable S4 (the prior until the first): what chooses the set
     nearest = blocks.lanes_empty((L,))
     for c0 in range(0, n_tr, L):
+        blocks.lane_trials(c0, n_tr, trial)  # a short last block repeats its last trial (not written)
         for ln in range(L):
-            t = min(c0 + ln, n_tr - 1)  # a short last block repeats its last trial (not written)
-            trial[ln] = t
+            t = trial[ln]
             for a in range(n):
                 x[a, ln] = prm.x0[t, a]
                 for b in range(n):

@@ -59,7 +59,8 @@ third round), with the lane forms of the blocks above: :func:`sparse_predict_lan
 :func:`atan_discriminator_lanes` (the scalar discriminator called per lane: the
 same libm calls; with the gather of the epoch's prompts: :func:`prompt_discriminator_lanes`),
 :func:`m2m4_lanes` (on :func:`window_push_lanes`), and
-:func:`lanes_any_zero` (the scalar division's ZeroDivisionError on any lane).
+:func:`lanes_any_zero` (the scalar division's ZeroDivisionError on any lane);
+the trial of each lane of a block of trials: :func:`lane_trials`.
 """
 
 from __future__ import annotations
@@ -1087,6 +1088,18 @@ def atan_discriminator_lanes(yr, yi, phase, out):
 
 
 @njit(cache=True)
+def lane_trials(c0, n_tr, trial):
+    """The trial of every lane of the block of ``LANES`` trials starting at trial ``c0``, into ``trial`` (LANES,) int64.
+
+    A short last block repeats its last trial in the lanes past it (computed,
+    never written out); returns how many lanes are real trials.
+    """
+    for ln in range(LANES):
+        trial[ln] = min(c0 + ln, n_tr - 1)
+    return min(LANES, n_tr - c0)
+
+
+@njit(cache=True)
 def prompt_discriminator_lanes(y, trial, i, phase, costas, yr, yi, out):
     """Epoch ``i`` of every lane's trial, ``y[trial[ln], i]``, into ``yr``/``yi`` (LANES,) and its discriminator
     against ``phase`` into ``out``: :func:`atan_discriminator` (Costas, ``costas``) or :func:`atan2_discriminator`."""
@@ -1100,18 +1113,20 @@ def prompt_discriminator_lanes(y, trial, i, phase, costas, yr, yi, out):
 
 
 @njit(cache=True)
-def m2m4_lanes(b2, b4, pos, s2, s4, count, p2, p4, min_epochs, prior_signal, prior_noise, floor_fraction, sig, noi):
+def m2m4_lanes(b2, b4, pos, s2, s4, count, yr, yi, p2, p4, min_epochs, prior_signal, prior_noise, floor_fraction, sig, noi):
     """The M2M4 window of the discriminator KFs on lanes; returns (pos, count).
 
-    Pushes ``p2`` (LANES,: each lane's ``|P|^2``) and ``p4 = p2 * p2`` (written)
-    into the ring buffers ``b2``, ``b4`` (window, LANES) with running sums ``s2``,
+    Pushes ``p2 = yr^2 + yi^2`` (LANES,: each lane's prompt power ``|P|^2``) and
+    ``p4 = p2 * p2`` (both written; scratch) into the ring buffers ``b2``, ``b4`` (window, LANES) with running sums ``s2``,
     ``s4`` (LANES,) (:func:`window_push_lanes`), then writes ``sig``, ``noi``
     (LANES,): the priors while ``count < min_epochs``, else :func:`m2m4_split`
     of the window means -- per lane the scalar kernels' ``window_push`` and split.
     """
     L = LANES
-    if p2.shape != (L,) or p4.shape != (L,) or sig.shape != (L,) or noi.shape != (L,):
-        raise ValueError("m2m4_lanes: p2, p4, sig, noi must be (LANES,)")
+    if yr.shape != (L,) or yi.shape != (L,) or p2.shape != (L,) or p4.shape != (L,) or sig.shape != (L,) or noi.shape != (L,):
+        raise ValueError("m2m4_lanes: yr, yi, p2, p4, sig, noi must be (LANES,)")
+    vr, vi = lane_load(yr, 0), lane_load(yi, 0)
+    lane_store(p2, 0, vr * vr + vi * vi)
     v = lane_load(p2, 0)
     lane_store(p4, 0, v * v)
     pos, count = window_push_lanes(b2, b4, pos, s2, s4, count, p2, p4)

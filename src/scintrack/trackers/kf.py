@@ -141,10 +141,9 @@ def kf_kernel(y, prm):
             Q[a, b, :] = prm.Q[a, b]
     R[:] = prm.r_fixed
     for c0 in range(0, n_tr, L):
-        m = min(L, n_tr - c0)  # trials of this block written out
+        m = blocks.lane_trials(c0, n_tr, trial)  # trials of this block written out
         for ln in range(L):
-            t = min(c0 + ln, n_tr - 1)  # a short last block repeats its last trial (not written)
-            trial[ln] = t
+            t = trial[ln]
             for a in range(n):
                 x[a, ln] = prm.x0[t, a]
                 for b in range(n):
@@ -164,9 +163,7 @@ def kf_kernel(y, prm):
             lane_store(phase, 0, ph)
             blocks.prompt_discriminator_lanes(y, trial, i, phase, False, yr, yi, nu)
             if prm.adaptive:
-                vr, vi = lane_load(yr, 0), lane_load(yi, 0)
-                lane_store(p2, 0, vr * vr + vi * vi)
-                pos, count = blocks.m2m4_lanes(b2, b4, pos, s2, s4, count, p2, p4, prm.min_epochs, prm.prior_signal, prm.prior_noise,
+                pos, count = blocks.m2m4_lanes(b2, b4, pos, s2, s4, count, yr, yi, p2, p4, prm.min_epochs, prm.prior_signal, prm.prior_noise,
                                                prm.floor_fraction, sig, noi)
                 for ln in range(L):
                     R[ln] = blocks.atan_variance(blocks.cn0_from_powers(sig[ln], noi[ln], prm.ts), prm.ts)

@@ -87,10 +87,9 @@ def pll_kernel(y, prm):
     yi = blocks.lanes_empty((L,))
     trial = np.empty(L, dtype=np.int64)
     for c0 in range(0, n, L):
-        m = min(L, n - c0)  # trials of this block written out
+        m = blocks.lane_trials(c0, n, trial)  # trials of this block written out
         for ln in range(L):
-            t = min(c0 + ln, n - 1)  # a short last block repeats its last trial (not written)
-            trial[ln] = t
+            t = trial[ln]
             phase[ln], v[ln], w[ln] = prm.phase0[t], prm.v0[t], prm.w0[t]
         for i in range(k):
             blocks.prompt_discriminator_lanes(y, trial, i, phase, prm.costas, yr, yi, e)

@@ -105,7 +105,6 @@ from .base import (
     spec_p0,
     spec_q_jerk,
 )
-from .blocks import lane_load, lane_store
 from .design import compose
 from .registry import register
 
@@ -208,7 +207,7 @@ def susi_kernel(y, i0, i1, prm, st, s_phi, s_f, weight, out, innov, freq, r_out,
     R[:] = prm.r_fixed
     for blk in range(nb):
         c0 = blk * L
-        m = min(L, n_tr - c0)  # trials of this block written out
+        m = blocks.lane_trials(c0, n_tr, trial)  # trials of this block written out
         x = st.x[blk]
         P = st.P[blk]
         b2 = st.buf2[blk]
@@ -217,8 +216,7 @@ def susi_kernel(y, i0, i1, prm, st, s_phi, s_f, weight, out, innov, freq, r_out,
         s4 = st.sums[blk, 1]
         pos, count = st.counters[blk, 0], st.counters[blk, 1]
         for ln in range(L):
-            t = min(c0 + ln, n_tr - 1)
-            trial[ln] = t
+            t = trial[ln]
             Qt[:, :] = prm.Q_base
             blocks.phase_frequency_q(s_phi[t], s_f[t], prm.ts, Qt)
             for a in range(3):
@@ -231,9 +229,7 @@ def susi_kernel(y, i0, i1, prm, st, s_phi, s_f, weight, out, innov, freq, r_out,
                 blocks.sparse_predict_lanes(x, P, xn, FP, Q, rows, cols, vals, nnz)
             blocks.prompt_discriminator_lanes(y, trial, i, phase, prm.costas, yr, yi, nu)
             if prm.adaptive:
-                vr, vi = lane_load(yr, 0), lane_load(yi, 0)
-                lane_store(p2, 0, vr * vr + vi * vi)
-                pos, count = blocks.m2m4_lanes(b2, b4, pos, s2, s4, count, p2, p4, prm.min_epochs, prm.prior_signal, prm.prior_noise,
+                pos, count = blocks.m2m4_lanes(b2, b4, pos, s2, s4, count, yr, yi, p2, p4, prm.min_epochs, prm.prior_signal, prm.prior_noise,
                                                prm.floor_fraction, sig, noi)
                 for ln in range(L):
                     R[ln] = blocks.costas_variance(blocks.cn0_from_powers(sig[ln], noi[ln], prm.ts), prm.ts)
