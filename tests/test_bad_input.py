@@ -33,7 +33,7 @@ import numpy as np
 import pytest
 import xarray as xr
 import yaml
-from conftest import REPO, SNAKEMAKE
+from conftest import REPO, SNAKEMAKE, cores_per_worker
 
 pytestmark = pytest.mark.pipeline
 
@@ -377,11 +377,13 @@ def _outcome(case: Case, base: Path, tmp: Path) -> Outcome:
 
 @pytest.fixture(scope="module")
 def outcomes(base: Path, tmp_path_factory) -> dict[str, Outcome]:
-    """Every case run once, two at a time (each is a CPU-bound process; the machine has 2 cores)."""
+    """Every case run once, as many at a time as this process has cores (each is a CPU-bound
+    process): two alone on the 2-core machine, one under ``-n 2``, where the other worker's tests
+    (the smoke DAG first) have the other core."""
     from concurrent.futures import ThreadPoolExecutor
 
     root = tmp_path_factory.mktemp("bad_input_cases")
-    with ThreadPoolExecutor(max_workers=2) as pool:
+    with ThreadPoolExecutor(max_workers=cores_per_worker()) as pool:
         futures = {c.name: pool.submit(_outcome, c, base, root / c.name) for c in CASES}
         return {name: f.result() for name, f in futures.items()}
 
