@@ -141,4 +141,4 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 def pytest_collection_finish(session: pytest.Session) -> None:
     """Record whether the smoke group is selected (after ``-k``/``-m``), for :func:`cores_per_worker`."""
-    _SESSION["smoke_selected"] = any(xdist_group(item) == SMOKE_GROUP for item in session.items)
+    _SESSION["smoke_selected"] = any("smoke_run" in item.fixturenames for item in session.items)
