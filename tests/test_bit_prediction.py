@@ -178,6 +178,26 @@ def test_iode_check_predicts_the_next_frame_bit_exactly(nav):
         p.observe(scen[k])
 
 
+def test_fork_is_independent_of_its_parent(nav):
+    """A fork observes frames without changing its parent, and predicts what a fresh predictor fed the same frames does."""
+    hist, scen = history_and_scenario(nav, 28)
+    r = bp.robust_prediction(nav[0], nav[1], 28, WEEK, T, T + 240, pages=nav[2])
+    parent = bp.BitPredictor("iode", r, history=hist, eps=EPS)
+    parent.observe(scen[0])
+    before = parent.priors(1)
+    child = parent.fork()
+    wrong = scen[1].copy()
+    wrong[bp.IODE_POSITIONS[-1]] ^= 1  # an IODE copy decided wrongly: the child falls back to the mask
+    child.observe(wrong)
+    assert parent.n_observed == 1 and child.n_observed == 2
+    assert np.array_equal(parent.priors(1), before)
+    fresh = bp.BitPredictor("iode", r, history=hist, eps=EPS)
+    fresh.observe(scen[0])
+    fresh.observe(wrong)
+    assert np.array_equal(child.priors(2), fresh.priors(2))
+    assert child.mode(2) == "mask"
+
+
 def test_upload_at_the_next_frame_boundary_is_mispredicted_exactly_where_the_sets_differ(nav):
     eph, header, pages = nav
     prn = 30

@@ -81,3 +81,50 @@ def test_upload_during_jamming_gives_wrong_iode_predictions_but_never_wrong_mask
     upload = t20 >= float(ds["subframe_start"].values[np.flatnonzero(ds["dataset_kind"].isel(sv=k).values == "upload")[0]])
     assert out["mm_iode_prediction_wrong"][:, upload].sum() > 0
     assert out["mm_iode_prediction_wrong"][:, ~upload].sum() == 0
+
+
+def test_memoised_priors_equal_a_fresh_predictor_per_trial(run):
+    """PriorSource shares predictor states between trials with the same decided frames; every trial's priors must
+    equal those of a predictor fed that trial's frames alone (the sequential receiver, trial by trial)."""
+    from scintrack.experiments.gps_receiver import FRAME_BITS
+    from scintrack.signals.gps import bit_prediction
+
+    ds, k, prm, out, t20 = run
+    ephs, header = ephemeris.load(RINEX), ephemeris.read_header(RINEX)
+    source = prior_sources(ds, k, ["mm_iode"], ephs, header, float(prm["receiver"]["prior_eps"]))["mm_iode"]
+    truth = (out["true_level"] < 0).astype(np.int8)
+    rng = np.random.default_rng(5)
+    trials = [truth, truth.copy()]  # a repeat: served from the memo
+    for n_flips in (1, 3, 40):
+        d = truth.copy()
+        d[rng.choice(d.size, n_flips, replace=False)] ^= 1
+        trials += [d, truth.copy()]
+    # an IODE copy of the first scenario frame decided wrongly: the next frame falls back to the mask
+    iode = [int(np.flatnonzero(source.nav_idx == source.first * FRAME_BITS + p)[0]) for p in bit_prediction.IODE_POSITIONS
+            if source.first * FRAME_BITS + p in source.nav_idx]
+    assert iode and source.last > source.first
+    d = truth.copy()
+    d[iode[0]] ^= 1
+    trials += [d, truth.copy()]
+    got = [source.priors(d) for d in trials]
+
+    def reference(decisions):
+        predictor = bit_prediction.BitPredictor("iode", source.robust, eps=float(prm["receiver"]["prior_eps"]))
+        history = ds["nav_bits"].isel(sv=k).values[: source.nav_idx[0]]
+        for j in range(source.first):
+            predictor.observe(history[j * FRAME_BITS : (j + 1) * FRAME_BITS])
+        full = np.full(source.robust.n_frames * FRAME_BITS, -1, dtype=np.int8)
+        full[source.first * FRAME_BITS : source.first * FRAME_BITS + len(source.head)] = source.head
+        full[source.nav_idx] = decisions
+        stream = np.full(full.size, 0.5)
+        for j in range(source.first, source.last + 1):
+            stream[j * FRAME_BITS : (j + 1) * FRAME_BITS] = predictor.priors(j)
+            frame = full[j * FRAME_BITS : (j + 1) * FRAME_BITS]
+            if not np.all(frame >= 0):
+                break
+            predictor.observe(frame)
+        return stream[source.nav_idx]
+
+    for d, g in zip(trials, got):
+        assert np.array_equal(g, reference(d))
+    assert not np.array_equal(got[-2], got[0])  # the wrong IODE copy changed the next frame's priors

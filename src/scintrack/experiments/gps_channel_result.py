@@ -21,6 +21,7 @@ The PLL's errors are modulo pi (Costas); the MM filter's modulo 2 pi.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -34,6 +35,21 @@ from . import gps_prompts as gp
 from .gps_receiver import channel, prior_sources
 
 CHIP_S = 1.0 / 1.023e6
+
+
+def _navigation(path: str | Path) -> tuple[tuple[ephemeris.Ephemeris, ...], ephemeris.NavHeader]:
+    """(data sets, header) of the navigation file, read once per job and file version: a sweep point runs every
+    channel on the same file (the records are frozen dataclasses, so sharing them is safe)."""
+    try:
+        st = Path(path).stat()
+    except OSError:  # let the reader give its own error for a missing file
+        return tuple(ephemeris.load(path)), ephemeris.read_header(path)
+    return _read_navigation(str(path), st.st_mtime_ns, st.st_size)
+
+
+@functools.lru_cache(maxsize=2)
+def _read_navigation(path: str, mtime_ns: int, size: int) -> tuple[tuple[ephemeris.Ephemeris, ...], ephemeris.NavHeader]:
+    return tuple(ephemeris.load(path)), ephemeris.read_header(path)
 
 
 def _trackers(params: Mapping[str, Any]) -> list[str]:
@@ -69,8 +85,7 @@ def _prediction_map(ds: xr.Dataset, k: int, ephs, header) -> tuple[np.ndarray, n
 def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemerides_path: str | Path,
                    log: Callable[..., None] = lambda *a: None, cn0_jammed_dbhz: float | None = None, trials: int | None = None) -> xr.Dataset:
     k = int(np.flatnonzero(ds["prn"].values == prn)[0])
-    ephs = ephemeris.load(ephemerides_path)
-    header = ephemeris.read_header(ephemerides_path)
+    ephs, header = _navigation(ephemerides_path)
     rc = params["receiver"]
     n_trials = int(rc["trials"] if trials is None else trials)
     batch = int(rc["trial_batch"])

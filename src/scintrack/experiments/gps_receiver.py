@@ -37,7 +37,6 @@ prior to the event onset").
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -49,6 +48,7 @@ from ..signals.gps.correlator import NoiseStream
 from ..trackers.base import TrackerContext, TrackInit
 from ..trackers.registry import build
 from . import gps_prompts as gp
+from .metrics import unit_phasor
 
 STREAM = "zhao_jamming/receiver"
 FRAME_BITS = 1500
@@ -83,7 +83,16 @@ def _frame_layout(ds: xr.Dataset, k: int, start: int, n_bits: int) -> tuple[np.n
 
 
 class PriorSource:
-    """Bit priors of one strategy for the 20-ms sums of a channel; the history before the scenario is read once."""
+    """Bit priors of one strategy for the 20-ms sums of a channel; the history before the scenario is read once.
+
+    The priors of frame j depend only on the frames decided before it, and
+    trials (and the fixed-point iterations of :func:`run_mm`) mostly share
+    those, so the predictor state after each distinct sequence of decided
+    frames, and the priors it gives the next frame, are computed once per
+    channel (``_after``: keyed by the bytes of the decided frames so far;
+    ``_next``: by frame index and those bytes; the same predictor calls on
+    the same states, so the same bits).
+    """
 
     def __init__(self, strategy: str, robust: bit_prediction.RobustPrediction | None, history: np.ndarray, nav_idx: np.ndarray, eps: float):
         self.strategy, self.robust, self.nav_idx = strategy, robust, nav_idx
@@ -92,25 +101,34 @@ class PriorSource:
         self.first = int(nav_idx[0] // FRAME_BITS)
         self.last = int(nav_idx[-1] // FRAME_BITS)
         self.base = bit_prediction.BitPredictor(strategy.removeprefix("mm_"), robust, eps=eps)
-        for j in range(self.first):  # complete frames decoded before the scenario (clean history)
+        for j in range(self.first):  # complete frames decided before the scenario (clean history)
             self.base.observe(history[j * FRAME_BITS : (j + 1) * FRAME_BITS])
         self.head = history[self.first * FRAME_BITS :]  # bits of the first scenario frame before the first sum
+        self._after: dict[bytes, bit_prediction.BitPredictor] = {b"": self.base}
+        self._next: dict[tuple[int, bytes], np.ndarray] = {}
         self.static = None
         if strategy == "mm_mask":  # the mask does not depend on decisions
             self.static = self._stream(np.zeros(len(nav_idx), dtype=np.int8))
 
     def _stream(self, decisions: np.ndarray) -> np.ndarray:
-        predictor = copy.deepcopy(self.base)
         n_frames = self.robust.n_frames
         full = np.full(n_frames * FRAME_BITS, -1, dtype=np.int8)
         full[self.first * FRAME_BITS : self.first * FRAME_BITS + len(self.head)] = self.head
         full[self.nav_idx] = decisions
         stream = np.full(n_frames * FRAME_BITS, 0.5)
+        key = b""  # the decided scenario frames observed so far
         for j in range(self.first, self.last + 1):
-            stream[j * FRAME_BITS : (j + 1) * FRAME_BITS] = predictor.priors(j)
+            predictor = self._after[key]
+            priors = self._next.get((j, key))
+            if priors is None:
+                priors = self._next[(j, key)] = predictor.priors(j)
+            stream[j * FRAME_BITS : (j + 1) * FRAME_BITS] = priors
             frame = full[j * FRAME_BITS : (j + 1) * FRAME_BITS]
             if np.all(frame >= 0):
-                predictor.observe(frame)
+                key += frame.tobytes()
+                if key not in self._after:
+                    self._after[key] = predictor.fork()
+                    self._after[key].observe(frame)
             elif self.strategy == "mm_iode":
                 break  # the last, partly decided frame: nothing after it needs priors
         return stream[self.nav_idx]
@@ -189,7 +207,7 @@ def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[
         "true_level": bits[start : start + n_bits * gp.BIT_MS : gp.BIT_MS],
     }
     # PLL bit decisions (Costas: up to a global sign) for the clean-segment decoding check
-    rot = (y1 * np.exp(-1j * p_out.theta_d))[:, start : start + n_bits * gp.BIT_MS].reshape(n_tr, n_bits, gp.BIT_MS).sum(axis=-1)
+    rot = (y1 * unit_phasor(p_out.theta_d, -1.0))[:, start : start + n_bits * gp.BIT_MS].reshape(n_tr, n_bits, gp.BIT_MS).sum(axis=-1)
     out["pll_level"] = np.sign(rot.real).astype(np.int8)
     dll_in = {"pll": (p_out.theta_d - phi[None, :], p_out.extras["frequency_hz"] - f_res[None, :])}
 

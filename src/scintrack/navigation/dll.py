@@ -218,26 +218,33 @@ def dll_kernel(a, sigma, bits, phase_err, freq_err, noise, spacing, n_int, offse
 # --- drivers ---------------------------------------------------------------------------
 
 
-def _as_grid(value, shape: tuple[int, int], arg: str) -> np.ndarray:
+def _as_grid(value, shape: tuple[int, int], arg: str, check=None) -> np.ndarray:
+    """``value`` as a read-only (trials, epochs) view; ``check`` (and finiteness) is tested on ``value``
+    before broadcasting, so a per-epoch row is checked once, not once per trial."""
     v = np.asarray(value, dtype=float)
     try:
-        v = np.broadcast_to(v, shape)
+        grid = np.broadcast_to(v, shape)
     except ValueError:
         raise ValueError(f"{arg} must broadcast to (trials, epochs) = {shape} (got shape {v.shape})") from None
     if not np.all(np.isfinite(v)):
         raise ValueError(f"{arg} must be finite")
-    return v
+    if check is not None:
+        check(v)
+    return grid
 
 
 def _check_bits(bits, shape: tuple[int, int], n_int: int, first_in_bit: int) -> np.ndarray:
-    b = _as_grid(bits, shape, "bits")
-    if not np.all(np.abs(b) == 1.0):
-        raise ValueError("bits must be +-1 data bits, shape (epochs,) or (trials, epochs)")
-    inside = (np.arange(1, shape[1]) + first_in_bit) % n_int != 0  # epoch e continues the integration of e-1
-    if np.any((b[:, 1:] != b[:, :-1]) & inside):
-        raise ValueError(f"bits change inside a {n_int}-ms integration: first_in_bit ({first_in_bit}) must put "
-                         "integration boundaries on the bit edges")
-    return b
+    def check(b):
+        if not np.all(np.abs(b) == 1.0):
+            raise ValueError("bits must be +-1 data bits, shape (epochs,) or (trials, epochs)")
+        if b.ndim == 0 or b.shape[-1] < 2:
+            return
+        inside = (np.arange(1, shape[1]) + first_in_bit) % n_int != 0  # epoch e continues the integration of e-1
+        if np.any((b[..., 1:] != b[..., :-1]) & inside):
+            raise ValueError(f"bits change inside a {n_int}-ms integration: first_in_bit ({first_in_bit}) must put "
+                             "integration boundaries on the bit edges")
+
+    return _as_grid(bits, shape, "bits", check)
 
 
 def run(

@@ -78,6 +78,7 @@ Choices the paper leaves open, with reasons:
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -442,6 +443,18 @@ class BitPredictor:
     def n_observed(self) -> int:
         """Frames of the scenario observed so far (the next frame to predict)."""
         return len(self._bits) - self.n_history
+
+    def fork(self) -> BitPredictor:
+        """An independent predictor in the same state: observing on either leaves the other unchanged.
+
+        The stored frames are never modified in place and ``robust`` is read
+        only, so they are shared; only the lists that :meth:`observe` appends to
+        are copied (``copy.deepcopy`` would also copy the whole scenario stream
+        of ``robust``).
+        """
+        new = copy.copy(self)
+        new._source, new._iodes, new._bits = list(self._source), list(self._iodes), list(self._bits)
+        return new
 
     def observe(self, frame_bits_decided: Sequence[int] | np.ndarray) -> None:
         """Store the decided transmitted bits (0/1) of the next scenario frame."""
