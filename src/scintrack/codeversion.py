@@ -33,6 +33,12 @@ folder exists (``$SCINTRACK_CODE_CACHE`` names another file; empty: no disk
 cache).  A changed file has other bytes, so a cache entry can never be stale;
 a hit skips parsing.  The cache is written atomically (temporary file, then
 rename), so concurrent jobs cannot corrupt it.
+
+The same cache remembers what a pure function of the code and of a JSON value
+returned (:func:`remembered`), keyed by the code version of the module that
+computes it: the config's consistency check and the tracking keys of a
+tracker spec need the tracker modules (numba) and xarray, which building the
+DAG then loads only when the code or the config changed (issue 14).
 """
 
 from __future__ import annotations
@@ -42,9 +48,10 @@ import hashlib
 import json
 import os
 import sys
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 PACKAGE = "scintrack"
 #: module -> package whose every module it imports at run time (not visible as an import statement)
@@ -105,6 +112,7 @@ def clear_caches() -> None:
     normalised_source.cache_clear()
     _facts_cached.cache_clear()
     module_file.cache_clear()
+    _module_version.cache_clear()
 
 
 def clear_disk_cache_memory() -> None:
@@ -262,3 +270,38 @@ def code_version(entries: Iterable[str | Path], length: int = 16) -> str:
         h.update(name.encode() + b"\0" + source_digest(module_file(name), name).encode())
     _save_disk()
     return h.hexdigest()[:length]
+
+
+@cache
+def _module_version(module: str) -> str:
+    """:func:`code_version` of one module (once per process, like the parsed sources; :func:`clear_caches` forgets it)."""
+    return code_version([module])
+
+
+def remembered(module: str, name: str, arg: Any, compute: Callable[[], Any], keep: Callable[[], bool] | None = None) -> Any:
+    """``compute()``, a pure function of ``arg`` and of the code of ``module``'s import closure, remembered in the disk cache.
+
+    The entry is keyed by ``name``, :func:`code_version` of ``module`` (so any
+    change of the code it runs is a miss) and the SHA-256 of ``arg`` as
+    canonical JSON; ``compute()`` must return a JSON value.  An exception
+    propagates and nothing is remembered (an error is raised afresh on every
+    call); an ``arg`` that is not JSON is never remembered, nor a value for
+    which ``keep()`` (asked after ``compute()``) is false: code outside the
+    closure took part (a tracker type registered by a test or a plug-in).
+    Without a disk cache (see the module docstring) every call computes.
+    """
+    try:
+        text = json.dumps(arg, sort_keys=True, separators=(",", ":"))
+    except (TypeError, ValueError):
+        return compute()
+    key = f"{_TAG}:remembered:{name}:{_module_version(module)}:{hashlib.sha256(text.encode()).hexdigest()}"
+    disk = _disk()
+    hit = disk.get(key)
+    if hit is not None and "value" in hit:
+        return hit["value"]
+    value = compute()
+    if _DISK_STATE.get("path") is not None and (keep is None or keep()):
+        disk[key] = {"value": value}
+        _DISK_STATE["dirty"] = True
+        _save_disk()
+    return value

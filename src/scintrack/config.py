@@ -183,7 +183,30 @@ def validate_config(config: Mapping[str, Any], schema_path: str | Path, source: 
 
 
 def check_consistency(config: Mapping[str, Any], source: str = "config/config.yaml") -> None:
-    """Rules the schema cannot express (references between keys)."""
+    """Rules the schema cannot express (references between keys).
+
+    A pure function of the config and the code: a config that passed is
+    remembered under the code version of this module's import closure
+    (:func:`scintrack.codeversion.remembered`) and not checked again, so
+    Snakemake builds the DAG without importing the tracker modules (numba)
+    and xarray until the config or the code changes (issue 14).  A config
+    that fails is checked, and refused, every time.
+    """
+    from .codeversion import remembered
+
+    def check() -> bool:
+        _check_consistency(config, source)
+        return True
+
+    def keep() -> bool:  # a tracker type registered outside the package (a test, a plug-in) is not in the code version
+        from .trackers.registry import from_package
+
+        return all(from_package(spec["type"]) for spec in config["trackers"].values())
+
+    remembered(__name__, "check_consistency", config, check, keep)
+
+
+def _check_consistency(config: Mapping[str, Any], source: str) -> None:
     from .trackers.registry import validate_specs
 
     _check_finite(config, "", source)

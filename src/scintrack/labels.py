@@ -9,8 +9,10 @@ show what the result was computed with and never keep a list of their own.
 from __future__ import annotations
 
 import json
+from typing import TYPE_CHECKING
 
-import xarray as xr
+if TYPE_CHECKING:
+    import xarray as xr
 
 
 def tracker_labels(ds: xr.Dataset) -> dict[str, str]:

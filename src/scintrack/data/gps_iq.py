@@ -20,19 +20,21 @@ the 8-MHz noise jammer at the configured J/S.
   quantisation noise.
 * Each segment draws its noise from its own seed, derived from the config
   seed and the segment name.
+
+The workflow imports this module to build the DAG (the recordings' paths and
+params), so numpy is imported inside :func:`segment_seed` only.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-import xarray as xr
-
-from ..seeding import stable_key
 from .gps_jamming import CODE_PERIOD_S, gps_jamming_params, gps_jamming_version
 from .versioning import code_version, dataset_version
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 NAME = "gps_jamming_iq"
 GENERATOR = "scintrack.data.gps_iq.record"
@@ -51,6 +53,10 @@ def iq_version(params: Mapping[str, Any]) -> str:
 
 def segment_seed(seed: int, segment: str) -> int:
     """A 63-bit seed for one segment, split from the config seed."""
+    import numpy as np
+
+    from ..seeding import stable_key
+
     seq = np.random.SeedSequence(int(seed), spawn_key=(stable_key(f"{NAME}/{segment}"),))
     return int(seq.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1))
 

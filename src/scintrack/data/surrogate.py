@@ -15,7 +15,9 @@ every tracker follows that slow phase, and it would count as theta_d error).
 
 An event's parameters (``real_traces.surrogate.events.<event>`` plus the
 shared screen geometry, sampling, bands and seed) determine its version, so
-changing any of them, or the generator, gives a new file.
+changing any of them, or the generator, gives a new file.  The parameters and
+the version are defined in :mod:`.surrogate_spec` (no numerical imports: the
+workflow needs them to build the DAG) and re-exported here.
 """
 
 from __future__ import annotations
@@ -28,36 +30,9 @@ import xarray as xr
 
 from ..seeding import rng_for
 from ..signals import phase_screen as ps
-from .versioning import code_version, dataset_version
+from .surrogate_spec import GENERATOR, GENERATOR_VERSION, surrogate_params, surrogate_version  # noqa: F401  (defined in surrogate_spec; re-exported here)
 
-GENERATOR = "scintrack.signals.phase_screen"
-GENERATOR_VERSION = code_version(ps.GENERATOR_VERSION, __name__)
 MARGIN_S = 20.0  # generated and dropped at both ends (no wrap-around of the periodic screen)
-
-
-def surrogate_params(config: Mapping[str, Any], event: str) -> dict[str, Any]:
-    rt = config["real_traces"]
-    sur = rt["surrogate"]
-    ev = sur["events"][event]
-    return {
-        "seed": int(config["seed"]),
-        "event": event,
-        "ts": float(config["sampling"]["ts"]),
-        "bands": list(rt["bands"]),
-        "duration_s": float(rt["fit_s"]) + float(rt["eval_s"]),
-        "s4_l1": float(ev["s4_l1"]),
-        "sigma_phi_l1": float(ev["sigma_phi_l1"]),
-        "profile": [[float(a), float(b)] for a, b in ev["profile"]],
-        "height_m": float(sur["height_m"]),
-        "drift_m_s": float(ev.get("drift_m_s", sur["drift_m_s"])),
-        "outer_scale_m": float(sur["outer_scale_m"]),
-        "window_s": float(sur["window_s"]),
-        "detrend_hz": float(sur["detrend_hz"]),
-    }
-
-
-def surrogate_version(params: Mapping[str, Any]) -> str:
-    return dataset_version(GENERATOR, GENERATOR_VERSION, params)
 
 
 def surrogate_event(params: Mapping[str, Any]) -> xr.Dataset:

@@ -15,17 +15,21 @@ The surrogates are made by the same generator as the Sec. VI-E surrogate
 parameters of ``susi_2014.traces.<name>.surrogate`` (plus the shared screen
 geometry of ``real_traces.surrogate``); their version follows those
 parameters and the generator code.
+
+Everything but :func:`at_rate` shapes the config (the workflow calls it to
+build the DAG), so numpy is imported inside :func:`at_rate` only.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-import xarray as xr
+from .surrogate_spec import surrogate_params, surrogate_version
 
-from .surrogate import surrogate_params, surrogate_version
+if TYPE_CHECKING:
+    import numpy as np
+    import xarray as xr
 
 FOLDER = "data/synthetic/susi_surrogate_{name}"
 
@@ -81,6 +85,8 @@ def at_rate(ds: xr.Dataset, ts: float, band: str = "L1") -> tuple[np.ndarray, np
     rate is linearly interpolated (amplitude and unwrapped phase), which adds
     nothing above the trace's own Nyquist frequency.
     """
+    import numpy as np
+
     t = np.asarray(ds["time"].values, dtype=float)
     rho = ds["amplitude"].sel(band=band).values.astype(float)
     theta = ds["phase"].sel(band=band).values.astype(float)

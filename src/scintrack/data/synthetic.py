@@ -3,6 +3,10 @@
 A training dataset holds CSM amplitude and unwrapped phase for one S4 value
 over a list of tau0 values and trials, dims (tau0, trial, time), float32 on
 disk (phase resolution better than 1e-5 rad for the ranges seen).
+
+Its parameters, name and version are defined in :mod:`.synthetic_spec` (no
+numerical imports: the workflow needs them to build the DAG) and re-exported
+here.
 """
 
 from __future__ import annotations
@@ -13,36 +17,14 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ..signals.csm import GENERATOR_VERSION as _LABEL
 from ..signals.csm import generate_csm
-from .versioning import code_version, dataset_version
-
-GENERATOR = "scintrack.signals.csm.generate_csm"
-GENERATOR_VERSION = code_version(_LABEL, __name__)
-
-
-def csm_training_params(config: Mapping[str, Any], s4: float) -> dict[str, Any]:
-    """All parameters that define one CSM training dataset (enter its version)."""
-    tr = config["ar_training"]
-    return {
-        "seed": int(config["seed"]),
-        "s4": float(s4),
-        "tau0": [float(t) for t in tr["tau0"]],
-        "duration_s": float(tr["duration_s"]),
-        "trials": int(tr["trials"]),
-        "ts": float(config["sampling"]["ts"]),
-        "nspa": int(config["sampling"]["nspa"]),
-        "output": config["csm"]["output"],
-        "warmup_s": float(config["csm"]["warmup_s"]),
-    }
-
-
-def csm_training_name(s4: float) -> str:
-    return f"csm_train_s4-{s4:g}"
-
-
-def csm_training_version(params: Mapping[str, Any]) -> str:
-    return dataset_version(GENERATOR, GENERATOR_VERSION, params)
+from .synthetic_spec import (  # noqa: F401  (the dataset's definition lives in synthetic_spec; re-exported here)
+    GENERATOR,
+    GENERATOR_VERSION,
+    csm_training_name,
+    csm_training_params,
+    csm_training_version,
+)
 
 
 def stream_name(s4: float, tau0: float) -> str:

@@ -11,13 +11,17 @@ Computed by :mod:`scintrack.tables.ranking` from the same results as
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import xarray as xr
 
 from ..labels import tex
 from ..products import figure
 from ..tables.ranking import PAPER, SECTION, UNIFORM_RMSE, ranking_inputs, ranking_long, ranking_summary, ranking_surrogate
 from .common import new_figure
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 
 def _display_names(long) -> dict[str, str]:

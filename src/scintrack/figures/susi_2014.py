@@ -21,8 +21,9 @@ stored 10-ms means of the 1-ms quantities.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import xarray as xr
 
 from ..experiments.metrics import mean_with_ci
 from ..labels import tex, tracker_labels
@@ -42,6 +43,9 @@ from ..tables.susi_2014 import (
     window_length_s,
 )
 from .common import new_figure
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 HIGH, EQUATORIAL = "susi_high_latitude", "susi_equatorial"
 COLOURS = {"susi_pll": "C0", "susi_akf": "C1", "susi_sakf": "C2"}

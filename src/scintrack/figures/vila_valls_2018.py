@@ -10,13 +10,17 @@ trials) from the results' attributes, tracker names from the results'
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import xarray as xr
 
 from ..labels import tracker_label
 from ..pipeline import paths
 from ..products import figure
 from .common import new_figure, symlog_axis
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 PAPER = "vila_valls_2018"
 SEC_AR = "Sec. III: AR models"

@@ -7,12 +7,16 @@ intervals, on a log axis (the numbers of ``tableS5_floors``).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import xarray as xr
 
 from ..products import figure
 from ..tables.vila_valls_2018_aekf import FLOOR_TEXT, PAPER, SECTION, floor_value, floors_inputs, pair_floors, paper_rmse, steady
 from .common import new_figure
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 FLOOR_STYLE = {"riccati_steady": ("tab:blue", "s"), "riccati_time_varying": ("tab:cyan", "D"), "gls_quadratic": ("tab:orange", "^"),
                "gls_with_qd": ("tab:red", "v")}

@@ -9,14 +9,18 @@ their files get the ``_surrogate`` suffix when the traces are the surrogate.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import xarray as xr
 
 from ..labels import tracker_label
 from ..pipeline import paths
 from ..products import figure
 from .common import new_figure, symlog_axis
 from .vila_valls_2018 import LOSS_OF_LOCK_RAD
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 PAPER = "vila_valls_2018"
 SEC_TRACES = "Sec. VI-E: real traces"

@@ -9,12 +9,16 @@ with 95% intervals.  Every title says the data are synthetic.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import xarray as xr
 
 from ..pipeline import paths
 from ..products import figure
 from .common import new_figure
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 PAPER = "zhao_jamming"
 SEC_RX = "Zhao et al.: receiver through jamming"

@@ -12,6 +12,12 @@ depends on, including those of its inputs (transitively), so that
 
 The functions take the merged config and the wildcards of a result and return
 plain JSON-able dicts.  Scripts read these params, never ``snakemake.config``.
+
+Snakemake imports this module and calls these functions whenever it builds
+the DAG, so they import only light modules (the ``*_spec`` halves of the
+dataset modules, never numpy, xarray or numba: issue 14); the tracking keys of
+a tracker spec, which need the tracker modules, are remembered per code
+version (:func:`_tracking_keys`).
 """
 
 from __future__ import annotations
@@ -19,8 +25,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from ..data.surrogate import surrogate_params
-from ..data.synthetic import csm_training_params
+from ..codeversion import remembered
+from ..data.surrogate_spec import surrogate_params
+from ..data.synthetic_spec import csm_training_params
 from . import paths
 
 # tracking settings that define the scenario (truth, observations) and the metrics
@@ -40,13 +47,28 @@ def tracker_specs(config: Mapping[str, Any], names) -> dict[str, Any]:
 
 def tracking_slice(config: Mapping[str, Any], names) -> dict[str, Any]:
     """The ``tracking`` keys that the scenario, the metrics and the named trackers read."""
-    from ..trackers.registry import tracking_keys
-
     tracking = config["tracking"]
     keys = set(SCENARIO_TRACKING_KEYS)
     for name in names:
-        keys.update(tracking_keys(config["trackers"][name]))
+        keys.update(_tracking_keys(config["trackers"][name]))
     return {key: tracking[key] for key in sorted(keys) if key in tracking}
+
+
+def _tracking_keys(spec: Mapping[str, Any]) -> list[str]:
+    """:func:`scintrack.trackers.registry.tracking_keys` of a spec, remembered under the code version of
+    the registry (:func:`scintrack.codeversion.remembered`): the registry imports every tracker module (numba)."""
+
+    def compute() -> list[str]:
+        from ..trackers.registry import tracking_keys
+
+        return list(tracking_keys(spec))
+
+    def keep() -> bool:
+        from ..trackers.registry import from_package
+
+        return from_package(spec["type"])
+
+    return remembered("scintrack.trackers.registry", "tracking_keys", spec, compute, keep)
 
 
 def training(config: Mapping[str, Any], s4: float | str) -> dict[str, Any]:

@@ -29,7 +29,7 @@ def fmt(x: float) -> str:
 
 
 def training_path(config: Mapping[str, Any], s4: float | str) -> str:
-    from ..data.synthetic import csm_training_name, csm_training_params, csm_training_version
+    from ..data.synthetic_spec import csm_training_name, csm_training_params, csm_training_version
 
     params = csm_training_params(config, float(s4))
     return f"data/synthetic/{csm_training_name(float(s4))}/{csm_training_version(params)}.nc"
@@ -64,7 +64,7 @@ def trace_path(config: Mapping[str, Any], event: str) -> str:
     """The canonical (validated) trace file of an event, real or surrogate."""
     if trace_source(config) == "real":
         return f"data/traces/real/{event}.nc"
-    from ..data.surrogate import surrogate_params, surrogate_version
+    from ..data.surrogate_spec import surrogate_params, surrogate_version
 
     params = surrogate_params(config, event)
     return f"data/synthetic/surrogate_{event}/{surrogate_version(params)}.nc"

@@ -51,10 +51,6 @@ import numpy as np
 from ..estimators.s4 import s4_index  # noqa: F401  (S4 lives in estimators.s4; re-exported)
 from ..seeding import rng_for
 
-#: Bumped whenever a code change alters the generated values.  It enters the
-#: dataset version hash, so old datasets stay addressable.
-GENERATOR_VERSION = "csm-1"
-
 BETA0 = 1.23964643681047
 #: the largest S4 the CSM realises (m = max(1, 1/S4^2) >= 1: Rician, Rayleigh at S4 = 1)
 S4_MAX = 1.0

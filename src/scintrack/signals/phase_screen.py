@@ -38,8 +38,6 @@ import numpy as np
 from ..estimators.s4 import window_s4  # S4 lives in estimators.s4 (re-exported here)
 from ..estimators.sigma_phi import detrend_phase, window_sigma_phi  # noqa: F401  (sigma_phi lives in estimators.sigma_phi; re-exported here)
 
-GENERATOR_VERSION = "1"
-
 C_LIGHT = 299_792_458.0
 GPS_CARRIERS_HZ = {"L1": 1575.42e6, "L2": 1227.60e6, "L5": 1176.45e6}
 

@@ -20,17 +20,19 @@ well as overall.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
-import xarray as xr
 
 from ..experiments.metrics import mean_with_ci
 from ..labels import tracker_labels
 from ..pipeline import paths
 from ..products import table
 from .susi_2014 import any_surrogate, experiment_scenarios
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 PAPER = "cross_paper"
 SECTION = "All trackers on all scenarios"

@@ -25,16 +25,18 @@ titles and notes say when a trace is a SYNTHETIC SURROGATE.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
-import xarray as xr
 
 from ..experiments.metrics import mean_with_ci
 from ..labels import tracker_labels
 from ..pipeline import paths
 from ..products import table
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 PAPER = "susi_2014"
 SECTION = "Susi et al. 2014: KF PLLs at 1 ms"

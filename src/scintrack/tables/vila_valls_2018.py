@@ -9,15 +9,19 @@ results' ``tracker_labels``.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
-import xarray as xr
 
 from ..labels import tracker_labels
 from ..models.regions import REGIONS
 from ..pipeline import paths
 from ..products import table
 from .paper_values import VILA_VALLS_2018_TABLE_I
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 PAPER = "vila_valls_2018"
 SEC_AR = "Sec. III: AR models"

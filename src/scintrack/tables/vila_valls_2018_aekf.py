@@ -21,17 +21,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
-import xarray as xr
 
 from ..experiments.metrics import mean_with_ci
 from ..labels import tracker_labels
 from ..pipeline import paths
 from ..products import table
 from .paper_values import TRACKERS_5, VILA_VALLS_2018_TABLE_III, VILA_VALLS_2018_TABLE_VII
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 PAPER = "vila_valls_2018"
 SECTION = "Vila-Valls 2018: the AEKF-AR question (issue 13)"

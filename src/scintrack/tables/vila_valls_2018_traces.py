@@ -9,9 +9,10 @@ their files get the ``_surrogate`` suffix when the traces are the surrogate.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
-import xarray as xr
 
 from ..experiments.metrics import mean_with_ci
 from ..labels import tracker_labels
@@ -19,6 +20,9 @@ from ..pipeline import paths
 from ..products import table
 from .paper_values import TRACKERS_5, VILA_VALLS_2018_TABLE_V, VILA_VALLS_2018_TABLE_VI, VILA_VALLS_2018_TABLE_VIII
 from .twin import twin_rows
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 PAPER = "vila_valls_2018"
 SEC_TRACES = "Sec. VI-E: real traces"

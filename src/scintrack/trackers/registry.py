@@ -33,7 +33,9 @@ from typing import Any
 
 from .base import Tracker, TrackerContext
 
-__all__ = ["TrackerContext", "TrackerType", "build", "get", "known_types", "label", "register", "spec_schema", "tracking_keys", "validate_specs"]
+__all__ = [
+    "TrackerContext", "TrackerType", "build", "from_package", "get", "known_types", "label", "register", "spec_schema", "tracking_keys", "validate_specs",
+]
 
 
 @dataclass(frozen=True)
@@ -90,6 +92,11 @@ def get(type_name: str) -> TrackerType:
         return _TYPES[type_name]
     except KeyError:
         raise ValueError(f"unknown tracker type {type_name!r} (known: {', '.join(known_types())})") from None
+
+
+def from_package(type_name: str) -> bool:
+    """True when the type is defined by a module of this package (not registered by a test or a plug-in)."""
+    return get(type_name).cls.__module__.startswith(__name__.rpartition(".")[0] + ".")
 
 
 def build(name: str, spec: Mapping[str, Any], context: TrackerContext) -> Tracker:
