@@ -31,14 +31,6 @@ METRICS = ("phase_rmse_clean", "phase_rmse_jammed", "freq_var_clean", "freq_var_
            "bit_error_clean", "bit_error_jammed", "predicted", "prediction_wrong")
 
 
-def mean_ci(x: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Mean and normal-approximation 95% interval of the mean along ``axis``."""
-    m = np.nanmean(x, axis=axis)
-    n = np.sum(np.isfinite(x), axis=axis)
-    half = 1.96 * np.nanstd(x, axis=axis, ddof=1) / np.sqrt(np.maximum(n, 1)) if x.shape[axis] > 1 else np.zeros_like(m)
-    return m, m - half, m + half
-
-
 def positions(ds: xr.Dataset, channels: Sequence[xr.Dataset]) -> xr.Dataset:
     """ENU errors (tracker, trial, time, axis) from the channels' pseudoranges."""
     t0 = float(ds.attrs["t_start_sow"])

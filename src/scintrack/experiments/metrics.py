@@ -73,6 +73,14 @@ def rmse_with_ci(sq_sum: np.ndarray, sq2_sum: np.ndarray, n: int) -> tuple[np.nd
     return np.sqrt(ms), np.sqrt(np.maximum(ms - half, 0.0)), np.sqrt(ms + half)
 
 
+def mean_ci(x: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mean and normal-approximation 95% interval of the mean along ``axis``."""
+    m = np.nanmean(x, axis=axis)
+    n = np.sum(np.isfinite(x), axis=axis)
+    half = 1.96 * np.nanstd(x, axis=axis, ddof=1) / np.sqrt(np.maximum(n, 1)) if x.shape[axis] > 1 else np.zeros_like(m)
+    return m, m - half, m + half
+
+
 def steady_rmse(ms_per_trial: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Steady-state RMSE and 95% interval from per-trial mean squares."""
     ms = np.asarray(ms_per_trial)

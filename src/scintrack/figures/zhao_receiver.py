@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..experiments.metrics import mean_ci
 from ..pipeline import paths
 from ..products import figure
 from .common import new_figure
@@ -148,8 +149,6 @@ def zhao_fig04(receiver):
 
 @figure("zhao_ablation", "ablation", paper=PAPER, section=SEC_RX, inputs=lambda c: _RX)
 def zhao_ablation(receiver):
-    from ..experiments.gps_positioning import mean_ci
-
     metrics = [("sv_phase_rmse_jammed", "phase RMSE jammed [rad]"), ("sv_in_lock_jammed", "time in lock (jammed)"),
                ("sv_bit_error_jammed", "wrong bit decisions (jammed)"), ("err3d_rms_jammed", "3D position RMS jammed [m]")]
     fig, axes = new_figure(2, 2, figsize=(8.0, 6.4))
@@ -187,8 +186,6 @@ def _sweep_inputs(config) -> dict[str, str]:
 
 def sweep_summary(points) -> dict[str, dict[str, np.ndarray]]:
     """Per metric: C/N0 grid and (tracker, point) mean / lo / hi over trials and satellites."""
-    from ..experiments.gps_positioning import mean_ci
-
     points = sorted(points, key=lambda p: float(p.attrs["cn0_jammed_dbhz"]))
     out = {"cn0": np.array([float(p.attrs["cn0_jammed_dbhz"]) for p in points]), "trackers": list(points[0]["tracker"].values)}
     for key in ("phase_rmse_jammed", "in_lock_jammed", "bit_error_jammed", "lol_events"):

@@ -5,11 +5,6 @@ standard deviation, clean (PLL-aided DLL) and jammed (MM-aided DLL).  We
 report the same statistics per Monte Carlo trial, averaged over trials with
 95% intervals (the interval of the mean over trials; the spread of a single
 run is the std column itself), for every carrier tracker.
-
-The receiver modules (:mod:`scintrack.experiments.gps_positioning` and the
-trackers it reaches) are imported inside the table functions: the workflow
-imports this module to build the DAG (the registry of products), which must
-not load numba or xarray (issue 14).
 """
 
 from __future__ import annotations
@@ -19,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from ..experiments.metrics import mean_ci
 from ..pipeline import paths
 from ..products import table
 from .paper_values import ZHAO_ENU
@@ -36,8 +32,6 @@ PAPER_TRACKER = {"clean": "pll", "jammed": "mm_iode"}
 
 
 def _enu_long(res: xr.Dataset) -> pd.DataFrame:
-    from ..experiments.gps_positioning import mean_ci
-
     rows = []
     for seg in ("clean", "jammed"):
         for tr in res["tracker"].values:
@@ -71,8 +65,6 @@ def zhao_table_enu(receiver: xr.Dataset) -> dict:
 
 @table("zhao_table_ablation", ["table_ablation"], paper=PAPER, section=SEC_RX, inputs=lambda c: _RX)
 def zhao_table_ablation(receiver: xr.Dataset) -> dict:
-    from ..experiments.gps_positioning import mean_ci
-
     upload_prns = [int(p.split()[1]) for p in str(receiver.attrs["uploads"]).split(", ") if p.startswith("PRN")]
     prns = [int(p) for p in receiver["prn"].values]
     groups = {"no upload": [i for i, p in enumerate(prns) if p not in upload_prns], "upload during jamming": [i for i, p in enumerate(prns) if p in upload_prns]}
