@@ -17,6 +17,13 @@ from snakemake.utils import min_version
 
 min_version("9.0")
 
+# glibc's allocator keeps freed memory for reuse instead of handing every large
+# numpy temporary back to the kernel and faulting in fresh zeroed pages for the
+# next one (a fifth of the big jobs' CPU was system time).  Jobs inherit it;
+# results are the same bits; a GLIBC_TUNABLES of your own wins.  Measured in
+# docs/performance.md ("Allocator settings").
+os.environ.setdefault("GLIBC_TUNABLES", "glibc.malloc.mmap_threshold=1073741824:glibc.malloc.trim_threshold=1073741824")
+
 sys.path.insert(0, os.path.join(workflow.basedir, "src"))
 from scintrack.config import ConfigError, load_config
 

@@ -192,27 +192,44 @@ def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[
     bits = ds["bit"].isel(sv=k).values.astype(float)
     y1, noise, sigma = gp.prompts_1ms(stream, trials, k, phi, cn0, bits, float(ds.attrs["cn0_clean_dbhz"]))
     n_tr = len(trials)
+    first_in_bit = int(ds["first_epoch_in_bit"].isel(sv=k))
+    spacing = float(rc["dll"]["spacing_chips"])
+
+    def code_error(phase1: np.ndarray, freq1: np.ndarray) -> np.ndarray:
+        """DLL of one carrier tracker on the E/L columns of the same noise draws (phase/frequency at 1 ms)."""
+        return dll.run(noise, cn0, bits, phase1 - phi[None, :], freq1 - f_res[None, :], spacing_chips=spacing,
+                       bandwidth_hz=float(rc["dll"]["bandwidth_hz"]), integration_ms=int(rc["dll"]["integration_ms"]),
+                       first_in_bit=first_in_bit, gain="fixed", cn0_ref_dbhz=float(ds.attrs["cn0_clean_dbhz"]))
+
+    # Each tracker's DLL runs as soon as its carrier estimates exist, and the 1-ms arrays behind it are
+    # dropped, so at most one tracker's (trials, epochs) intermediates are held at a time (peak memory
+    # of the job, issue 14); the arithmetic is the same as running every DLL at the end.
     pll = _tracker(params["trackers"], rc["pll"], gp.CODE_PERIOD_S)
     init1 = TrackInit(phase=np.full(n_tr, phi[0]), doppler_hz=np.full(n_tr, f_res[0]), rate_hz_s=np.zeros(n_tr))
     p_out = pll.run(y1, init1)
-    y20, start = gp.bit_sums(y1, int(ds["first_epoch_in_bit"].isel(sv=k)))
+    y20, start = gp.bit_sums(y1, first_in_bit)
     n_bits = y20.shape[1]
     phi20 = gp.interval_phase(phi, start, n_bits)
     f20 = f_res[start : start + n_bits * gp.BIT_MS].reshape(n_bits, gp.BIT_MS).mean(axis=1)
     sl = slice(start, start + n_bits * gp.BIT_MS, gp.BIT_MS)
+    p_phase, p_freq = p_out.theta_d, p_out.extras["frequency_hz"]
+    del p_out
     out: dict[str, np.ndarray] = {
-        "pll_phase_error": gp.wrap(p_out.theta_d[:, sl] - phi[sl], np.pi),
-        "pll_frequency_error": p_out.extras["frequency_hz"][:, sl] - f_res[sl],
+        "pll_phase_error": gp.wrap(p_phase[:, sl] - phi[sl], np.pi),
+        "pll_frequency_error": p_freq[:, sl] - f_res[sl],
         "true_frequency": f20,
         "true_level": bits[start : start + n_bits * gp.BIT_MS : gp.BIT_MS],
     }
     # PLL bit decisions (Costas: up to a global sign) for the clean-segment decoding check
-    rot = (y1 * unit_phasor(p_out.theta_d, -1.0))[:, start : start + n_bits * gp.BIT_MS].reshape(n_tr, n_bits, gp.BIT_MS).sum(axis=-1)
+    rot = (y1 * unit_phasor(p_phase, -1.0))[:, start : start + n_bits * gp.BIT_MS].reshape(n_tr, n_bits, gp.BIT_MS).sum(axis=-1)
     out["pll_level"] = np.sign(rot.real).astype(np.int8)
-    dll_in = {"pll": (p_out.theta_d - phi[None, :], p_out.extras["frequency_hz"] - f_res[None, :])}
+    del y1, rot
+    out["pll_code_error_chips"] = code_error(p_phase, p_freq)
+    del p_phase, p_freq
 
     mm = _tracker(params["trackers"], rc["mm"], gp.BIT_MS * gp.CODE_PERIOD_S)
     init20 = TrackInit(phase=np.full(n_tr, phi20[0]), doppler_hz=np.full(n_tr, f20[0]), rate_hz_s=np.zeros(n_tr))
+    n_epochs = len(phi)
     for variant in rc["variants"]:
         m_out, priors, decisions = run_mm(mm, y20, init20, sources[variant])
         out[f"{variant}_phase_error"] = gp.wrap(m_out.theta_d - phi20[None, :])
@@ -221,18 +238,11 @@ def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[
         out[f"{variant}_bit_error"] = decisions != true_bit[None, :]
         out[f"{variant}_predicted"] = np.abs(priors - 0.5) > 0.25
         out[f"{variant}_prediction_wrong"] = out[f"{variant}_predicted"] & ((priors > 0.5) != (true_bit[None, :] == 0))
-        phase1 = np.repeat(m_out.theta_d, gp.BIT_MS, axis=1)
-        freq1 = np.repeat(m_out.extras["frequency_hz"], gp.BIT_MS, axis=1)
-        pad = ((0, 0), (start, y1.shape[1] - start - phase1.shape[1]))
-        phase1 = np.pad(phase1, pad, mode="edge")
-        freq1 = np.pad(freq1, pad, mode="edge")
-        dll_in[variant] = (phase1 - phi[None, :], freq1 - f_res[None, :])
-    # DLL per carrier tracker, on the E/L columns of the same noise draws
-    spacing = float(rc["dll"]["spacing_chips"])
-    for name, (phase_err, freq_err) in dll_in.items():
-        dtau = dll.run(noise, cn0, bits, phase_err, freq_err, spacing_chips=spacing, bandwidth_hz=float(rc["dll"]["bandwidth_hz"]),
-                       integration_ms=int(rc["dll"]["integration_ms"]), first_in_bit=int(ds["first_epoch_in_bit"].isel(sv=k)),
-                       gain="fixed", cn0_ref_dbhz=float(ds.attrs["cn0_clean_dbhz"]))
-        out[f"{name}_code_error_chips"] = dtau
+        pad = ((0, 0), (start, n_epochs - start - n_bits * gp.BIT_MS))
+        phase1 = np.pad(np.repeat(m_out.theta_d, gp.BIT_MS, axis=1), pad, mode="edge")
+        freq1 = np.pad(np.repeat(m_out.extras["frequency_hz"], gp.BIT_MS, axis=1), pad, mode="edge")
+        del m_out
+        out[f"{variant}_code_error_chips"] = code_error(phase1, freq1)
+        del phase1, freq1
     out["start_epoch"] = np.array(start)
     return out

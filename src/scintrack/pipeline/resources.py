@@ -65,7 +65,7 @@ MEASURED: dict[str, tuple[float, float]] = {
     "gps_iq_recording": (389.2, 2.1),
     "zhao_cn0_estimates": (350.5, 1.8),
     "zhao_iq_spectrum": (459.3, 3.1),
-    "zhao_channel": (1837.9, 37.3),
+    "zhao_channel": (1413.7, 37.3),  # max_rss re-measured 2026-12-02 (full run): each tracker's DLL as soon as its inputs exist
     "zhao_receiver": (374.1, 2.7),
     "zhao_cn0_sweep_point": (1353.5, 89.4),
 }
