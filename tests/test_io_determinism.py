@@ -68,3 +68,25 @@ def test_dataset_version_follows_generator_code():
     assert v2 != v1
     assert dataset_version("gen", v1, {"a": 1}) != dataset_version("gen", v2, {"a": 1})
     assert dataset_version("gen", v1, {"a": 1}) != dataset_version("gen", v1, {"a": 2})
+
+
+def test_fault_injection_holds_outputs_not_the_code_cache(tmp_path, monkeypatch):
+    """SCINTRACK_HOLD_BEFORE_RENAME delays the writes of outputs (the kill-and-resume test kills a job there), not
+    the code-version cache that Snakemake's own process writes while it builds the DAG (each of those writes held
+    delayed the first job of a fresh folder by ~80 s)."""
+    from scintrack import atomic, codeversion
+
+    slept = []
+    monkeypatch.setattr(atomic.time, "sleep", slept.append)
+    monkeypatch.setenv("SCINTRACK_HOLD_BEFORE_RENAME", "7.5")
+    atomic.atomic_bytes(tmp_path / "out.txt", "x")
+    assert slept == [7.5] and (tmp_path / "out.txt").read_text() == "x"
+    monkeypatch.setenv("SCINTRACK_CODE_CACHE", str(tmp_path / "cache.json"))
+    codeversion.clear_caches()
+    codeversion.clear_disk_cache_memory()
+    try:
+        codeversion.code_version(["scintrack.progress"])
+    finally:
+        codeversion.clear_caches()
+        codeversion.clear_disk_cache_memory()
+    assert (tmp_path / "cache.json").is_file() and slept == [7.5]

@@ -20,8 +20,12 @@ killed write leaves the old file as it was.
   so a workflow script reports it as one line) naming the file and the fix,
   after removing its temporary file.
 * **Fault injection.** ``SCINTRACK_HOLD_BEFORE_RENAME=SECONDS`` makes every
-  write wait that long between the complete temporary file and the rename:
-  the kill-and-resume test uses it to kill a job in the middle of a write.
+  write of an output wait that long between the complete temporary file and
+  the rename: the kill-and-resume test uses it to kill a job in the middle of
+  a write.  Bookkeeping files that are no pipeline output (the code-version
+  cache, written by Snakemake's own process while it builds the DAG) pass
+  ``hold=False``: holding each of their writes delayed the first job of a
+  fresh folder by a minute and a half.
 
 No heavy imports: the data registry uses it while Snakemake builds the DAG.
 """
@@ -78,10 +82,10 @@ def atomic_target(path: Path, suffix: str = SUFFIX) -> tuple[int, str]:
     return fd, tmp
 
 
-def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> None:
+def atomic_write(path: str | os.PathLike, write: Callable[[str], object], *, hold: bool = True) -> None:
     """Call ``write(temporary_name)`` to fill a temporary file, then rename it onto ``path``.
 
-    On any failure the temporary file is removed and ``path`` is left as it
+    ``hold``: honour ``SCINTRACK_HOLD_BEFORE_RENAME`` (the module docstring).  On any failure the temporary file is removed and ``path`` is left as it
     was; an ``OSError`` (disk full, read-only folder) becomes
     :class:`OutputWriteError`.
     """
@@ -90,9 +94,9 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Non
     os.close(fd)
     try:
         write(tmp)
-        hold = os.environ.get("SCINTRACK_HOLD_BEFORE_RENAME")
-        if hold:
-            time.sleep(float(hold))
+        seconds = os.environ.get("SCINTRACK_HOLD_BEFORE_RENAME") if hold else None
+        if seconds:
+            time.sleep(float(seconds))
         os.replace(tmp, path)
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
@@ -102,8 +106,8 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object]) -> Non
         raise
 
 
-def atomic_bytes(path: str | os.PathLike, data: str | bytes, *, fsync: bool = False) -> None:
-    """Write ``data`` (text as UTF-8) to ``path`` atomically; ``fsync`` before the rename if asked."""
+def atomic_bytes(path: str | os.PathLike, data: str | bytes, *, fsync: bool = False, hold: bool = True) -> None:
+    """Write ``data`` (text as UTF-8) to ``path`` atomically; ``fsync`` before the rename if asked; ``hold``: see :func:`atomic_write`."""
     payload = data.encode() if isinstance(data, str) else bytes(data)
 
     def write(tmp: str) -> None:
@@ -113,7 +117,7 @@ def atomic_bytes(path: str | os.PathLike, data: str | bytes, *, fsync: bool = Fa
                 fh.flush()
                 os.fsync(fh.fileno())
 
-    atomic_write(path, write)
+    atomic_write(path, write, hold=hold)
 
 
 def _writer_gone(name: str) -> bool:

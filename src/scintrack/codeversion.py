@@ -157,7 +157,7 @@ def _save_disk() -> None:
     try:
         from .atomic import atomic_bytes
 
-        atomic_bytes(path, json.dumps(_DISK, sort_keys=True))
+        atomic_bytes(path, json.dumps(_DISK, sort_keys=True), hold=False)  # bookkeeping, not an output: no fault-injection hold
         _DISK_STATE["dirty"] = False
     except OSError:
         pass  # no cache written: the next run parses again
