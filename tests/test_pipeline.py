@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 from pathlib import Path
 
@@ -120,3 +121,14 @@ def test_experiment_results_have_statistics_and_twins(smoke_run):
     twin = pd.read_csv(smoke_run / "tables" / "vila_valls_2018" / "table03_steady_state_rmse_vs_paper.csv")
     assert {"paper", "reproduced", "ci95_lo", "ci95_hi", "ratio_reproduced_over_paper"} <= set(twin.columns)
     assert len(twin) == 30
+
+
+def test_jobs_run_with_the_snakefiles_allocator_setting(smoke_run):
+    """The Snakefile sets GLIBC_TUNABLES for its jobs (glibc keeps freed memory for reuse: issue 14,
+    docs/performance.md); every job's log records the value it ran with (a user's own setting wins)."""
+    match = re.search(r'os\.environ\.setdefault\("GLIBC_TUNABLES", "([^"]+)"\)', (REPO / "Snakefile").read_text())
+    assert match, "the Snakefile no longer sets GLIBC_TUNABLES"
+    expected = os.environ.get("GLIBC_TUNABLES", match.group(1))
+    lines = [line for log in (smoke_run / "logs").rglob("*.log") for line in log.read_text().splitlines() if "GLIBC_TUNABLES=" in line]
+    assert len(lines) > 100  # the smoke DAG's script jobs
+    assert all(line.endswith(f"GLIBC_TUNABLES={expected}") for line in lines), lines[:3]

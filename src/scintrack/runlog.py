@@ -5,6 +5,7 @@ an uncaught :class:`scintrack.errors.InputError` becomes one ``error:`` line
 from __future__ import annotations
 
 import logging
+import os
 import sys
 from pathlib import Path
 
@@ -33,6 +34,8 @@ def setup(log_path: str | None, name: str) -> logging.Logger:
     sh.setLevel(logging.WARNING)
     logger.addHandler(sh)
     errors.install_script_hook(lambda line: _to_log_file(logger, line))
+    # the allocator setting the job runs with (the Snakefile sets it for every job; docs/performance.md)
+    logger.info("GLIBC_TUNABLES=%s", os.environ.get("GLIBC_TUNABLES", "(unset)"))
     return logger
 
 
