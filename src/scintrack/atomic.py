@@ -85,7 +85,8 @@ def atomic_target(path: Path, suffix: str = SUFFIX) -> tuple[int, str]:
 def atomic_write(path: str | os.PathLike, write: Callable[[str], object], *, hold: bool = True) -> None:
     """Call ``write(temporary_name)`` to fill a temporary file, then rename it onto ``path``.
 
-    ``hold``: honour ``SCINTRACK_HOLD_BEFORE_RENAME`` (the module docstring).  On any failure the temporary file is removed and ``path`` is left as it
+    ``hold``: honour ``SCINTRACK_HOLD_BEFORE_RENAME`` (the module docstring).
+    On any failure the temporary file is removed and ``path`` is left as it
     was; an ``OSError`` (disk full, read-only folder) becomes
     :class:`OutputWriteError`.
     """
