@@ -26,6 +26,12 @@ os.environ.setdefault("GLIBC_TUNABLES", "glibc.malloc.mmap_threshold=1073741824:
 
 sys.path.insert(0, os.path.join(workflow.basedir, "src"))
 from scintrack.config import ConfigError, load_config
+from scintrack.pipeline.benchmark_sampling import install as _light_benchmark_sampling
+
+# benchmark: files are sampled with RSS/VMS only (no USS/PSS): Snakemake's own
+# sampler read every page table of every job ~2x a second, ~10% of a full run's
+# CPU on 2 cores (src/scintrack/pipeline/benchmark_sampling.py).
+_light_benchmark_sampling()
 
 _CONFIG_YAML = os.path.join(workflow.basedir, "config", "config.yaml")
 try:  # the project's loader names the file and line of a YAML error

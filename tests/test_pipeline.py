@@ -132,3 +132,14 @@ def test_jobs_run_with_the_snakefiles_allocator_setting(smoke_run):
     lines = [line for log in (smoke_run / "logs").rglob("*.log") for line in log.read_text().splitlines() if "GLIBC_TUNABLES=" in line]
     assert len(lines) > 100  # the smoke DAG's script jobs
     assert all(line.endswith(f"GLIBC_TUNABLES={expected}") for line in lines), lines[:3]
+
+
+def test_benchmark_files_come_from_the_light_sampler(smoke_run):
+    """The Snakefile installs scintrack.pipeline.benchmark_sampling: the benchmark: files have
+    RSS but no USS/PSS ("-"), and a script job's peak is that of a Python process."""
+    frames = [pd.read_csv(p, sep="\t") for p in sorted((smoke_run / "results" / "benchmarks").rglob("*.tsv"))]
+    assert len(frames) > 50
+    table = pd.concat(frames, ignore_index=True)
+    assert (table["max_uss"].astype(str) == "-").all() and (table["max_pss"].astype(str) == "-").all()
+    rss = pd.to_numeric(table["max_rss"], errors="coerce")
+    assert rss.notna().mean() > 0.9 and rss.max() > 50
