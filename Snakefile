@@ -29,8 +29,8 @@ from scintrack.config import ConfigError, load_config
 from scintrack.pipeline.benchmark_sampling import install as _light_benchmark_sampling
 
 # benchmark: files are sampled with RSS/VMS only (no USS/PSS): Snakemake's own
-# sampler read every page table of every job ~2x a second, ~10% of a full run's
-# CPU on 2 cores (src/scintrack/pipeline/benchmark_sampling.py).
+# sampler walks every page table of every job ~2x a second (on 19 shard jobs the
+# Snakemake process's system time 4.7 -> 0.9 s; src/scintrack/pipeline/benchmark_sampling.py).
 _light_benchmark_sampling()
 
 _CONFIG_YAML = os.path.join(workflow.basedir, "config", "config.yaml")
@@ -54,6 +54,21 @@ onstart:
     _removed = clean_stale(OUTPUT_ROOTS)
     if _removed:
         print(f"removed {len(_removed)} temporary file(s) left by an interrupted run", file=sys.stderr)
+
+
+# With the workflow profile's rate limit (profiles/default) the scheduler keeps a
+# 10-s re-evaluation timer alive; cancel it when the run is over, so the process
+# exits at once (src/scintrack/pipeline/scheduler_timers.py).
+onsuccess:
+    from scintrack.pipeline.scheduler_timers import cancel_pending
+
+    cancel_pending()
+
+
+onerror:
+    from scintrack.pipeline.scheduler_timers import cancel_pending
+
+    cancel_pending()
 
 
 rule all:

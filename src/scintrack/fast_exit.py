@@ -7,9 +7,10 @@ objects), and those passes traverse every one of its millions of live
 objects, only for the operating system to take the whole memory back a
 moment later.  py-spy on a small tracking job put 41% of its samples after
 the script's last line, almost all in ``gc_collect_main``; ending the same job
-with the collector frozen took 2.37 -> 1.76 CPU-s and 4.05 -> 2.94 s of wall
-time (docs/performance.md, seventh round), about half a CPU-second for each
-of the ~270 jobs of a full run.
+with the collector frozen took 2.15-2.63 -> 1.52-2.04 user CPU-s and
+3.3-4.6 -> 2.5-3.9 s of wall time (three interleaved runs; ending it with
+``os._exit`` saved the same; docs/performance.md, seventh round), about half
+a CPU-second for each of the ~270 jobs of a full run.
 
 :func:`install` (called by :func:`scintrack.runlog.setup`, i.e. by every
 workflow script) registers :func:`gc.freeze` with :mod:`atexit`.  atexit

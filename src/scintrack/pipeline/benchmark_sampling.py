@@ -7,9 +7,11 @@ it walks the job's process tree with psutil and reads, for each process,
 kernel walks the page tables of the whole process to give USS and PSS.  On
 the project's 2-core machine that sampling competes with the jobs for the
 same two cores: in a full run the Snakemake process used 175 CPU-s (91 user
-+ 84 system), and py-spy on it (19 cycle-slip shard jobs) put 74% of its
-busy samples in the benchmark sampling, 70% of those in
-``memory_full_info`` (measured in ``docs/performance.md``, seventh round).
++ 84 system; the larger part was its scheduler's one-second timer, see
+``profiles/default/config.yaml``), and py-spy on it while it ran 19
+cycle-slip shard jobs put 74% of its busy samples in the benchmark
+sampling, 70% of those in ``memory_full_info``; the light sampler took its
+system time there from 4.7 to 0.9 s (``docs/performance.md``, seventh round).
 
 :func:`install` replaces the sampler's record update by one that reads
 ``memory_info()`` instead (``/proc/PID/statm``: RSS and VMS, about 50 times
