@@ -27,6 +27,7 @@ os.environ.setdefault("GLIBC_TUNABLES", "glibc.malloc.mmap_threshold=1073741824:
 sys.path.insert(0, os.path.join(workflow.basedir, "src"))
 from scintrack.config import ConfigError, load_config
 from scintrack.pipeline.benchmark_sampling import install as _light_benchmark_sampling
+from scintrack.pipeline.scheduler_timers import cancel_pending
 
 # benchmark: files are sampled with RSS/VMS only (no USS/PSS): Snakemake's own
 # sampler walks every page table of every job ~2x a second (on 19 shard jobs the
@@ -60,14 +61,10 @@ onstart:
 # 10-s re-evaluation timer alive; cancel it when the run is over, so the process
 # exits at once (src/scintrack/pipeline/scheduler_timers.py).
 onsuccess:
-    from scintrack.pipeline.scheduler_timers import cancel_pending
-
     cancel_pending()
 
 
 onerror:
-    from scintrack.pipeline.scheduler_timers import cancel_pending
-
     cancel_pending()
 
 
