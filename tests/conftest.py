@@ -17,6 +17,32 @@ from pathlib import Path
 
 import pytest
 
+#: whether numpy was loaded before this file (then its BLAS pool was sized already; ``tests/test_suite_threads.py``)
+NUMPY_BEFORE_CONFTEST = "numpy" in sys.modules
+#: linear-algebra thread variables as the suite found them (a value the user set is kept)
+BLAS_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+USER_BLAS = {var: os.environ.get(var) for var in BLAS_VARIABLES}
+
+
+def _one_blas_pool_per_core() -> None:
+    """Size the linear-algebra thread pools of an xdist worker to its share of the cores.
+
+    Each worker is one of ``PYTEST_XDIST_WORKER_COUNT`` processes that already fill the
+    machine (two on two cores), and OpenBLAS otherwise starts a thread per core in each of
+    them: the pools then oversubscribe the cores and their threads spin while they wait for
+    work (the unit tests took 94 -> 84 CPU-s with one thread each; issue 14, test-suite time).
+    Snakemake sets the same variables from ``threads`` for the jobs it runs, so the
+    workflows the tests start are unaffected.  A value the user set is kept.
+    """
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0") or 0)
+    if workers > 0:
+        share = str(max(1, (os.cpu_count() or 1) // workers))
+        for var in BLAS_VARIABLES:
+            os.environ.setdefault(var, share)
+
+
+_one_blas_pool_per_core()
+
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
 SNAKEMAKE = str(BIN / "snakemake")

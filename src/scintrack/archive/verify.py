@@ -48,13 +48,12 @@ def _nc_attr(data: bytes, name: str):
 
 def check_config(members: dict[str, bytes]) -> list[str]:
     """Every result (packed, or listed by hash) against the bundle's config."""
-    import yaml
-
+    from ..config import yaml_load
     from ..pipeline.consistency import mismatches
 
     if "config/config.yaml" not in members or "results_manifest.json" not in members:
         return []  # reported by check_sums / check_results
-    config = yaml.safe_load(members["config/config.yaml"])
+    config = yaml_load(members["config/config.yaml"])
     manifest = json.loads(members["results_manifest.json"])
     recorded = dict(manifest.get("config_sha256", {}))
     for rel in manifest.get("included", []):

@@ -16,6 +16,7 @@ from typing import Any
 import yaml
 
 from ..atomic import atomic_bytes
+from ..config import yaml_load
 from ..errors import InputError
 
 HEADER = """# Registry of EXTERNAL datasets (tracked).  Each entry: the sha256 the file
@@ -35,7 +36,7 @@ def read_registry(path: str | Path) -> dict[str, Any]:
     if not path.exists():
         return {"datasets": {}}
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+        data = yaml_load(path.read_text(encoding="utf-8")) or {}
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
