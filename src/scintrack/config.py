@@ -17,21 +17,11 @@ from typing import Any
 import yaml
 
 from .errors import InputError
+from .yamlio import yaml_load
 
 
 class ConfigError(InputError):
     """A configuration value is invalid; the message is one line."""
-
-
-#: PyYAML's safe loader on libyaml's parser where PyYAML was built with it (the same
-#: constructor and resolver, so the same values; ~10x faster on config.yaml, which every
-#: Snakemake start-up reads: issue 14), else the pure-Python one.
-SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-
-
-def yaml_load(text: str) -> Any:
-    """``yaml.safe_load`` with :data:`SAFE_LOADER`: the project's one way to read YAML."""
-    return yaml.load(text, Loader=SAFE_LOADER)  # noqa: S506 (a safe loader)
 
 
 def deep_merge(base: Mapping[str, Any], overlay: Mapping[str, Any]) -> dict[str, Any]:

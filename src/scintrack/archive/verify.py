@@ -48,8 +48,8 @@ def _nc_attr(data: bytes, name: str):
 
 def check_config(members: dict[str, bytes]) -> list[str]:
     """Every result (packed, or listed by hash) against the bundle's config."""
-    from ..config import yaml_load
     from ..pipeline.consistency import mismatches
+    from ..yamlio import yaml_load
 
     if "config/config.yaml" not in members or "results_manifest.json" not in members:
         return []  # reported by check_sums / check_results

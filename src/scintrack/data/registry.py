@@ -16,8 +16,8 @@ from typing import Any
 import yaml
 
 from ..atomic import atomic_bytes
-from ..config import yaml_load
 from ..errors import InputError
+from ..yamlio import yaml_load
 
 HEADER = """# Registry of EXTERNAL datasets (tracked).  Each entry: the sha256 the file
 # must have, plus a description.  Where a file comes from is set in the config
