@@ -122,3 +122,26 @@ def test_trace_scenarios_and_floors_are_checked(config, edit, key):
     with pytest.raises(ConfigError, match=key.replace(".", r"\.")) as info:
         check_consistency(cfg)
     assert "\n" not in str(info.value)
+
+
+def test_yaml_reader_gives_what_the_safe_loader_gives():
+    """scintrack.yamlio reads every YAML file of the project to the same values as ``yaml.safe_load`` (libyaml's
+    parser, same constructor and resolver), and refuses what the safe loader refuses."""
+    import yaml
+
+    from scintrack.yamlio import yaml_load
+
+    files = [*sorted((REPO / "config").glob("*.yaml")), *sorted((REPO / "workflow" / "schemas").glob("*.yaml")),
+             *sorted((REPO / "profiles").rglob("*.yaml")), *sorted((REPO / "data").glob("*.yaml"))]
+    assert len(files) >= 4
+    for path in files:
+        text = path.read_text(encoding="utf-8")
+        assert yaml_load(text) == yaml.safe_load(text), path
+    for text in ("on: yes\nn: ~\nt: 2026-12-02\nf: 1e3\ni: 0x1f\n", "a: !!python/object/apply:os.system ['true']\n"):
+        try:
+            expected = yaml.safe_load(text)
+        except yaml.YAMLError:
+            with pytest.raises(yaml.YAMLError):
+                yaml_load(text)
+        else:
+            assert yaml_load(text) == expected
