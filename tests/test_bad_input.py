@@ -14,6 +14,14 @@ message does not), or a workflow-script-like entry point (``python -c`` with
 readers whose rule needs a long chain to reach.  Snakemake's own job-failure
 summary ("Error in rule ...", the log path) surrounds the line when a job
 fails; it is Snakemake's and names no Python frame.
+
+The trace reader's format checks run through the ``trace_dataset`` job's own
+reader call (``via="reader"``: the same ``load_trace`` with the bands and
+sampling period the rule passes, under the same hook) once each container has
+one case that goes through Snakemake end to end (``trace_nan``: npz,
+``trace_inf_netcdf``: NetCDF, which also cover the job's renaming of the
+verified copy to the user's file).  Each Snakemake case costs two job processes
+and a Snakemake start-up, ~2.7 CPU-s against ~0.8 (issue 14, test-suite time).
 """
 
 from __future__ import annotations
@@ -54,7 +62,7 @@ class Case:
     overlay: dict | str | None = None  # mapping, or raw YAML text
     targets: tuple[str, ...] = ()  # empty: a dry run of everything (-n)
     setup: Callable[[Path, Path], dict | None] | None = None  # (workdir, tmp) -> overlay additions
-    via: str = "snakemake"  # or "repro", "script"
+    via: str = "snakemake"  # or "repro", "script", "reader" (the trace_dataset job's reader on the overlay's event1 file)
     script: str = ""  # for via="script": python code run after runlog.setup; {tmp} is formatted
     extra: tuple[str, ...] = ()
     env: dict = field(default_factory=dict)
@@ -256,14 +264,14 @@ CASES = [
     # --- real traces: every container, every check
     Case("trace_nan", ("ev.npz", "amplitude_L2", "non-finite"), setup=trace_case("nan"), targets=(TRACE_TARGET,)),
     Case("trace_inf_netcdf", ("ev.nc", "phase_L5", "non-finite"), setup=trace_case("inf"), targets=(TRACE_TARGET,)),
-    Case("trace_nonmonotonic", ("ev.npz", "time"), setup=trace_case("nonmonotonic"), targets=(TRACE_TARGET,)),
-    Case("trace_truncated_npz", ("ev.npz",), setup=trace_case("truncated"), targets=(TRACE_TARGET,)),
-    Case("trace_corrupt_netcdf", ("ev.nc",), setup=trace_case("corrupt_nc"), targets=(TRACE_TARGET,)),
-    Case("trace_units", ("ev.nc", "phase_L1", "deg"), setup=trace_case("units"), targets=(TRACE_TARGET,)),
-    Case("trace_missing_variable", ("ev.nc", "phase_L2", "missing"), setup=trace_case("missing_var"), targets=(TRACE_TARGET,)),
-    Case("trace_wrong_dims", ("ev.nc",), setup=trace_case("dims"), targets=(TRACE_TARGET,)),
-    Case("trace_csv_garbage", ("ev.csv",), setup=trace_case("csv_garbage"), targets=(TRACE_TARGET,)),
-    Case("trace_mat_corrupt", ("ev.mat",), setup=trace_case("mat_corrupt"), targets=(TRACE_TARGET,)),
+    Case("trace_nonmonotonic", ("ev.npz", "time"), setup=trace_case("nonmonotonic"), via="reader"),
+    Case("trace_truncated_npz", ("ev.npz",), setup=trace_case("truncated"), via="reader"),
+    Case("trace_corrupt_netcdf", ("ev.nc",), setup=trace_case("corrupt_nc"), via="reader"),
+    Case("trace_units", ("ev.nc", "phase_L1", "deg"), setup=trace_case("units"), via="reader"),
+    Case("trace_missing_variable", ("ev.nc", "phase_L2", "missing"), setup=trace_case("missing_var"), via="reader"),
+    Case("trace_wrong_dims", ("ev.nc",), setup=trace_case("dims"), via="reader"),
+    Case("trace_csv_garbage", ("ev.csv",), setup=trace_case("csv_garbage"), via="reader"),
+    Case("trace_mat_corrupt", ("ev.mat",), setup=trace_case("mat_corrupt"), via="reader"),
     Case("trace_unknown_container", ("real_traces.sources.event1", "ev.xyz", "format"), setup=trace_case("container"), targets=(TRACE_TARGET,)),
     Case("trace_missing_file", ("nosuch.npz", "no such file", "real_traces.sources"), setup=trace_case("missing_file"), targets=(TRACE_TARGET,)),
     Case("trace_wrong_sha256", ("sha256 mismatch", "moved aside"), setup=trace_case("wrong_sha"), targets=(TRACE_TARGET,)),
@@ -352,6 +360,14 @@ def _run(case: Case, base: Path, tmp: Path) -> tuple[subprocess.CompletedProcess
         lines.insert(10, "tracking: {cn0_dbhz: [1")
         cfg.write_text("\n".join(lines) + "\n")
         cmd = [SNAKEMAKE, "-n", "-s", str(repo / "Snakefile"), "--directory", str(work), "--cores", "1"]
+    elif case.via == "reader":
+        config = [str(REPO / "config" / "config.yaml"), str(REPO / "config" / "smoke.yaml"), *overlays]
+        code = ("from scintrack import runlog\nrunlog.setup(None, 'case')\n"
+                "from scintrack.config import load_config\nfrom scintrack.data.traces import load_trace\n"
+                "from scintrack.pipeline.params import trace_input\n"
+                f"run = trace_input(load_config({config!r}), 'event1')\n"
+                "load_trace(run['source']['path'], list(run['bands']), float(run['ts']), event='event1', source='real')\n")
+        cmd = [sys.executable, "-c", code]
     else:
         code = "from scintrack import runlog\nrunlog.setup(None, 'case')\n" + case.script.replace("{tmp!r}", repr(str(tmp)))
         cmd = [sys.executable, "-c", code]

@@ -122,7 +122,7 @@ def test_every_kalman_kernel_flags_a_covariance_that_is_not_positive_semi_defini
             assert np.all(div.epoch == 0) and np.all(div.reason == 2), name
     # MM KF: P0 is validated (>= 0), so hand the kernel a NaN phase variance directly
     mm = MMKF(ts=0.02)
-    y20 = y[:, :200]
+    y20 = np.ascontiguousarray(y[:, :200])  # the layout MMKF.run hands the kernel (a strided view would compile a second overload)
     prm = mm.params(y20, init)
     np.testing.assert_array_equal(mm_kf_kernel(y20, prm)[-1], -1)
     P0 = prm.P0.copy()
