@@ -69,13 +69,22 @@ def _metrics(err: np.ndarray, ferr: np.ndarray, jammed: np.ndarray, lock: Mappin
     }
 
 
-def _prediction_map(ds: xr.Dataset, k: int, ephs, header) -> tuple[np.ndarray, np.ndarray]:
-    """Fig. 4 arrays: the last complete frame before the start and the upload-robust prediction of the next."""
+def _prediction_map(ds: xr.Dataset, k: int, ephs, header, robust=None) -> tuple[np.ndarray, np.ndarray]:
+    """Fig. 4 arrays: the last complete frame before the start and the upload-robust prediction of the next.
+
+    ``robust``: the channel's own upload-robust prediction (:func:`gps_receiver.prior_sources`), which starts
+    at the same frame and runs to the scenario's end + 30 s; the map needs its frames up to the one holding
+    the scenario start, and those do not depend on where the span ends (every alternative history of a later
+    frame boundary, an upload cut in there, sends the scheduled set before it, and the parity chain restarts
+    at every subframe), so it is the one this function would compute for [start, t0 + 30 s]
+    (``tests/test_gps_receiver.py``).  ``None`` (no MM variant uses a prediction): computed here.
+    """
     from ..signals.gps import bit_prediction
 
     week, t0 = int(ds.attrs["gps_week"]), float(ds.attrs["t_start_sow"])
     t_first = t0 + float(ds["nav_bit_time"].values[0])
-    robust = bit_prediction.robust_prediction(ephs, header, int(ds["prn"].values[k]), week, t_first + 1e-6, t0 + 30.0)
+    if robust is None:
+        robust = bit_prediction.robust_prediction(ephs, header, int(ds["prn"].values[k]), week, t_first + 1e-6, t0 + 30.0)
     j = int(np.sum(ds["nav_bit_time"].values < 0.0) // 1500)  # frame containing the scenario start
     last = ds["nav_bits"].isel(sv=k).values[(j - 1) * 1500 : j * 1500]
     priors = bit_prediction.BitPredictor("mask", robust).priors(j)
@@ -153,7 +162,8 @@ def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemeri
     for what, units in (("phase", "rad"), ("frequency", "Hz"), ("bit_error", "1")):
         data[f"example_{what}"] = (("tracker", "time"), np.array([example[f"{n}:{what}"] for n in names]), {"units": units, "trial": fig_trial})
     data["pseudorange"] = (("tracker", "trial", "pos_time"), np.array([np.concatenate(pseudo[n]) for n in names]), {"units": "m"})
-    last, nxt = _prediction_map(ds, k, ephs, header)
+    shared = next((src.robust for src in sources.values() if src.robust is not None), None)
+    last, nxt = _prediction_map(ds, k, ephs, header, shared)
     data["prediction_last"] = (("word", "bit_in_word"), last)
     data["prediction_next"] = (("word", "bit_in_word"), nxt)
     res = xr.Dataset(
