@@ -205,8 +205,9 @@ def load(path: str | Path) -> list[Ephemeris]:
             raise RinexFormatError(f"{path}: a record names satellite {str(sv)!r}; GPS PRNs are G01..G32 (fix the record's PRN field)")
         sat = nav.sel(sv=sv).dropna("time", how="all")
         week, sow = seconds_of_week(sat.time.values)
+        columns = {name: sat[name].values for name in sat.data_vars}  # one array per field: indexing the Dataset per record costs ~0.3 s a file
         for k in range(sat.sizes["time"]):
-            rec = {name: float(sat[name].values[k]) for name in sat.data_vars}
+            rec = {name: float(column[k]) for name, column in columns.items()}
             blank = [name for name in _REQUIRED if not np.isfinite(rec[name])]
             if blank:
                 raise RinexFormatError(f"{path}: the {sv} record of {str(sat.time.values[k])[:19]} has blank or unreadable {', '.join(blank)}; "
