@@ -213,3 +213,20 @@ def test_figures_render(tmp_path):
         save_figure(fig, [tmp_path / "x.png"])
         assert (tmp_path / "x.png").stat().st_size > 10_000
         assert "SURROGATE" in texts
+
+
+
+def test_sakf_monitor_says_when_its_T_median_covers_only_the_first_shard():
+    """A median does not merge: a sharded result keeps the first shard's T median and says over how many trials
+    (``median_trials``, ``tests/test_trackers.py``); the SAKF monitor figure must not claim all of them."""
+    from scintrack.figures import susi_2014 as figs
+
+    def texts(res):
+        fig = figs.susi_sakf_monitor(res)
+        return " ".join(t.get_text() for ax in fig.axes for t in ax.texts)
+
+    rng = np.random.default_rng(0)
+    res = chapter(_jit(rng, 0.3), _jit(rng, 0.2), _jit(rng, 0.1))
+    assert "on-line T: median over trials" in texts(res) and "first" not in texts(res)
+    res["T_mean"].attrs["median_trials"] = 2
+    assert "on-line T: median over the first 2 of 4 trials" in texts(res)

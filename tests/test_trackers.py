@@ -12,6 +12,7 @@ from conftest import REPO
 from scipy.linalg import solve_discrete_are
 
 from scintrack.config import load_config
+from scintrack.experiments.merge import merge
 from scintrack.experiments.metrics import count_cycle_slips, slip_counts, unwrapped_error, wrap
 from scintrack.experiments.runner import run_shard
 from scintrack.models.ar import ScintillationAR
@@ -415,3 +416,21 @@ def test_lane_blocks_are_the_scalar_blocks_bit_for_bit():
         bad = F.copy()
         bad[0, 3, 0] = 0.1
         blocks.ar_coefficients(bad, Q, kap, p, q)
+
+
+def test_merged_sakf_monitors_average_and_the_T_median_is_the_first_shards_and_says_so(config):
+    """phi3, p and the weight merge as trial-weighted means; a median does not merge, so T is the first shard's
+    median and carries the trials it covers (``median_trials``), which the SAKF monitor figure states."""
+    def shard(trials):
+        sc = copy.deepcopy(config["scenarios"]["s4_0.5_tau0_0.4"])
+        sc["duration_s"] = 2.0
+        tracking = dict(config["tracking"], steady_state_start_s=1.0)
+        return run_shard(scenario_name="s4_0.5_tau0_0.4", scenario=sc, tracker_names=["susi_sakf"], tracker_specs=config["trackers"],
+                         tracking=tracking, lut=_lut(), seed=7, ts=TS, nspa=8, warmup_s=1.0, trials=trials)
+
+    a, b = shard([0, 1, 2]), shard([3, 4])
+    merged = merge([a, b])
+    assert int(merged["n_trials"]) == 5 and merged["T_mean"].attrs["median_trials"] == 3
+    np.testing.assert_array_equal(merged["T_mean"].values, a["T_mean"].values)
+    np.testing.assert_allclose(merged["weight_mean"].values, (3 * a["weight_mean"].values + 2 * b["weight_mean"].values) / 5, rtol=1e-12)
+    assert "median_trials" not in a["T_mean"].attrs  # a single job's median covers every trial

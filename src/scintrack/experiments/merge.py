@@ -82,7 +82,10 @@ def merge(shards: Sequence[xr.Dataset]) -> xr.Dataset:
     for m in MONITORS:
         key = f"{m}_mean"
         if key in first:
-            out[key] = sum(d[key] * int(d["n_trials"]) for d in shards) / n if m != "T" else first[key]  # T: the first shard's median
+            if m != "T":
+                out[key] = sum(d[key] * int(d["n_trials"]) for d in shards) / n
+            else:  # a median does not merge: the first shard's, and the trials it covers say so (the SAKF monitor figure)
+                out[key] = first[key].assign_attrs(median_trials=int(first["n_trials"]))
     out.attrs.update(first.attrs)
     trials = out["trial"].values
     if np.unique(trials).size != trials.size:

@@ -303,10 +303,14 @@ def susi_sakf_monitor(*datasets):
             if key in truth:
                 ax.plot(*truth[key], lw=0.9, color="0.3", label=f"noise-free trace ({float(ind.attrs['phi3_window_s']):g}-s window, "
                         f"{float(ind.attrs.get('detrend_hz', np.nan)):g}-Hz high-pass)")
+            stat = "mean over trials"
+            if key == "T":  # a sharded result carries the first shard's median (experiments/merge.py)
+                covered = int(res["T_mean"].attrs.get("median_trials", res["n_trials"]))
+                stat = "median over trials" if covered == int(res["n_trials"]) else f"median over the first {covered} of {int(res['n_trials'])} trials"
             for k, tr in enumerate(_monitored(res)):
-                stat = "median" if key == "T" else "mean"
-                ax.plot(t, res[f"{key}_mean"].sel(tracker=tr).values, lw=0.7, color=_colour(tr, 2 + k), label=f"{_label(res, tr)} on-line, own carrier phase ({stat} over trials)")
+                ax.plot(t, res[f"{key}_mean"].sel(tracker=tr).values, lw=0.7, color=_colour(tr, 2 + k), label=f"{_label(res, tr)} on-line, own carrier phase ({stat})")
             if key == "T":
+                ax.text(0.01, 0.97, f"on-line T: {stat}", transform=ax.transAxes, fontsize=6.5, va="top")  # the legend (top row) shows the mean
                 ax.set_yscale("log")
             if key == "weight":
                 ax.set_ylim(bottom=0)
