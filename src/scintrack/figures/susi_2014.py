@@ -310,7 +310,8 @@ def susi_sakf_monitor(*datasets):
             for k, tr in enumerate(_monitored(res)):
                 ax.plot(t, res[f"{key}_mean"].sel(tracker=tr).values, lw=0.7, color=_colour(tr, 2 + k), label=f"{_label(res, tr)} on-line, own carrier phase ({stat})")
             if key == "T":
-                ax.text(0.01, 0.97, f"on-line T: {stat}", transform=ax.transAxes, fontsize=6.5, va="top")  # the legend (top row) shows the mean
+                ax.text(0.01, 0.97, f"on-line T: {stat}", transform=ax.transAxes, fontsize=6.5, va="top",
+                        bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none", "pad": 1.5})  # the legend (top row) shows the mean
                 ax.set_yscale("log")
             if key == "weight":
                 ax.set_ylim(bottom=0)
