@@ -156,21 +156,17 @@ def test_fig4_map_from_the_channels_prediction_equals_its_own_short_span_predict
     """The channel reuses its upload-robust prediction (to the scenario's end + 30 s) for the Fig. 4 map, which
     needs only the frames up to the scenario start: the map must equal the one from a prediction over
     [start, t0 + 30 s] (fewer frames, fewer upload alternatives), and the shared prefix must be the same bits."""
-    from scintrack.experiments.gps_channel_result import _prediction_map
+    from scintrack.experiments.gps_channel_result import _prediction_map, start_prediction
 
     ds, k, prm, _, _ = run
     ephs, header = ephemeris.load(RINEX), ephemeris.read_header(RINEX)
     sources = prior_sources(ds, k, prm["receiver"]["variants"], ephs, header, float(prm["receiver"]["prior_eps"]))
     shared = next(s.robust for s in sources.values() if s.robust is not None)
-    own = _prediction_map(ds, k, ephs, header)  # computed on the short span
+    short = start_prediction(ds, k, ephs, header)  # what the map is computed from without a shared prediction
+    own = _prediction_map(ds, k, ephs, header, short)
     reused = _prediction_map(ds, k, ephs, header, shared)
     for a, b in zip(own, reused):
         np.testing.assert_array_equal(a, b)
-    from scintrack.signals.gps import bit_prediction
-
-    week, t0 = int(ds.attrs["gps_week"]), float(ds.attrs["t_start_sow"])
-    t_first = t0 + float(ds["nav_bit_time"].values[0])
-    short = bit_prediction.robust_prediction(ephs, header, int(ds["prn"].values[k]), week, t_first + 1e-6, t0 + 30.0)
     assert short.t0 == shared.t0 and short.n_frames < shared.n_frames and short.n_alternatives < shared.n_alternatives
     n = short.bits.size
     np.testing.assert_array_equal(short.bits, shared.bits[:n])

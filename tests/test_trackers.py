@@ -238,8 +238,6 @@ def test_reference_catches_a_wrong_model():
 
 
 def test_shards_merge_exactly(config):
-    from scintrack.experiments.runner import merge
-
     whole = merge([_shard(config, range(4), "s4_0.8_tau0_0.2", duration=1.5)])
     parts = merge([_shard(config, [2, 3], "s4_0.8_tau0_0.2", duration=1.5), _shard(config, [0, 1], "s4_0.8_tau0_0.2", duration=1.5)])
     np.testing.assert_allclose(parts["sq_sum"].values, whole["sq_sum"].values, rtol=1e-12)

@@ -69,6 +69,15 @@ def _metrics(err: np.ndarray, ferr: np.ndarray, jammed: np.ndarray, lock: Mappin
     }
 
 
+def start_prediction(ds: xr.Dataset, k: int, ephs, header):
+    """Upload-robust prediction of satellite ``k`` over [first bit, t0 + 30 s]: the frames the Fig. 4 map needs."""
+    from ..signals.gps import bit_prediction
+
+    week, t0 = int(ds.attrs["gps_week"]), float(ds.attrs["t_start_sow"])
+    t_first = t0 + float(ds["nav_bit_time"].values[0])
+    return bit_prediction.robust_prediction(ephs, header, int(ds["prn"].values[k]), week, t_first + 1e-6, t0 + 30.0)
+
+
 def _prediction_map(ds: xr.Dataset, k: int, ephs, header, robust=None) -> tuple[np.ndarray, np.ndarray]:
     """Fig. 4 arrays: the last complete frame before the start and the upload-robust prediction of the next.
 
@@ -76,15 +85,13 @@ def _prediction_map(ds: xr.Dataset, k: int, ephs, header, robust=None) -> tuple[
     at the same frame and runs to the scenario's end + 30 s; the map needs its frames up to the one holding
     the scenario start, and those do not depend on where the span ends (every alternative history of a later
     frame boundary, an upload cut in there, sends the scheduled set before it, and the parity chain restarts
-    at every subframe), so it is the one this function would compute for [start, t0 + 30 s]
-    (``tests/test_gps_receiver.py``).  ``None`` (no MM variant uses a prediction): computed here.
+    at every subframe), so it gives the map of :func:`start_prediction` (``tests/test_gps_receiver.py``).
+    ``None`` (no MM variant uses a prediction): :func:`start_prediction`.
     """
     from ..signals.gps import bit_prediction
 
-    week, t0 = int(ds.attrs["gps_week"]), float(ds.attrs["t_start_sow"])
-    t_first = t0 + float(ds["nav_bit_time"].values[0])
     if robust is None:
-        robust = bit_prediction.robust_prediction(ephs, header, int(ds["prn"].values[k]), week, t_first + 1e-6, t0 + 30.0)
+        robust = start_prediction(ds, k, ephs, header)
     j = int(np.sum(ds["nav_bit_time"].values < 0.0) // 1500)  # frame containing the scenario start
     last = ds["nav_bits"].isel(sv=k).values[(j - 1) * 1500 : j * 1500]
     priors = bit_prediction.BitPredictor("mask", robust).priors(j)
