@@ -55,6 +55,11 @@ onstart:
     _removed = clean_stale(OUTPUT_ROOTS)
     if _removed:
         print(f"removed {len(_removed)} temporary file(s) left by an interrupted run", file=sys.stderr)
+    # Local runs: one warm process imports the libraries once and each job's script
+    # runs in a fork of it (src/scintrack/pipeline/job_server.py; SCINTRACK_JOB_SERVER=0 turns it off).
+    from scintrack.pipeline import job_server
+
+    job_server.start(workflow, os.path.join(workflow.basedir, "workflow", "scripts"))
 
 
 # With the workflow profile's rate limit (profiles/default) the scheduler keeps a
@@ -62,10 +67,16 @@ onstart:
 # exits at once (src/scintrack/pipeline/scheduler_timers.py).
 onsuccess:
     cancel_pending()
+    from scintrack.pipeline import job_server
+
+    job_server.stop()
 
 
 onerror:
     cancel_pending()
+    from scintrack.pipeline import job_server
+
+    job_server.stop()
 
 
 rule all:

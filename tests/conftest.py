@@ -48,14 +48,13 @@ BIN = Path(sys.executable).parent
 SNAKEMAKE = str(BIN / "snakemake")
 
 
-def run_snakemake(workdir: Path, *args: str, timeout: float = 900) -> subprocess.CompletedProcess:
-    """Run the repository's Snakefile with the smoke overlay in ``workdir``."""
+def run_snakemake(workdir: Path, *args: str, timeout: float = 900, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
+    """Run the repository's Snakefile with the smoke overlay in ``workdir`` (``env``: variables added to the environment)."""
     cmd = [
         SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
         "--configfile", str(REPO / "config" / "smoke.yaml"), "--cores", "2", *args,
     ]
-    env = dict(os.environ, PYTHONHASHSEED="0")
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=dict(os.environ, PYTHONHASHSEED="0", **(env or {})))
 
 
 @pytest.fixture(scope="session")
@@ -90,12 +89,11 @@ def experiment_jobs(experiments) -> dict[str, int]:
     return {rule: n for rule, n in jobs.items() if n}
 
 
-def run_targets(workdir: Path, *targets: str, overlays=(), timeout: float = 600) -> subprocess.CompletedProcess:
+def run_targets(workdir: Path, *targets: str, overlays=(), timeout: float = 600, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
     """Build ``targets`` (rule names or files; before --configfile, which takes every following word)."""
     cmd = [SNAKEMAKE, *targets, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--cores", "2",
            "--configfile", str(REPO / "config" / "smoke.yaml"), *map(str, overlays)]
-    env = dict(os.environ, PYTHONHASHSEED="0")
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=dict(os.environ, PYTHONHASHSEED="0", **(env or {})))
 
 
 #: facts about this session's selection (set by :func:`pytest_collection_finish`)

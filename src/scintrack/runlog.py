@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 from . import errors, fast_exit, profiling
+from .pipeline import job_client
 
 
 def setup(log_path: str | None, name: str) -> logging.Logger:
@@ -38,6 +39,8 @@ def setup(log_path: str | None, name: str) -> logging.Logger:
     errors.install_script_hook(lambda line: _to_log_file(logger, line))
     # the allocator setting the job runs with (the Snakefile sets it for every job; docs/performance.md)
     logger.info("GLIBC_TUNABLES=%s", os.environ.get("GLIBC_TUNABLES", "(unset)"))
+    if job_client.IN_CHILD:  # scintrack.pipeline.job_server
+        logger.info("process: a fork of the run's job server (pid %d)", os.getppid())
     return logger
 
 

@@ -1,5 +1,9 @@
 """AR rule entry point: fit AR models to one training dataset."""
 
+from scintrack.pipeline.job_client import delegate
+
+delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
+
 from scintrack import runlog
 from scintrack.io import open_dataset, provenance, write_netcdf
 from scintrack.models.lut import fit_training_set

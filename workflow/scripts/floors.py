@@ -1,5 +1,9 @@
 """Issue 13 rule entry point: the achievability floors of one Table III cell (scintrack.experiments.floors)."""
 
+from scintrack.pipeline.job_client import delegate
+
+delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
+
 from scintrack import runlog
 from scintrack.experiments.floors import floors_table
 from scintrack.io import open_dataset, provenance, write_netcdf

@@ -6,6 +6,10 @@ it).  Inputs are passed as opened Datasets by keyword, ``params.kwargs`` as
 extra arguments.
 """
 
+from scintrack.pipeline.job_client import delegate
+
+delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
+
 from scintrack import runlog
 from scintrack.experiments.guards import divergence_note
 from scintrack.figures.common import add_footer, save_figure

@@ -5,6 +5,10 @@ The function (found through :mod:`scintrack.products`) returns
 ``<stem>_csv`` and ``<stem>_md`` outputs.
 """
 
+from scintrack.pipeline.job_client import delegate
+
+delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
+
 from scintrack import runlog
 from scintrack.experiments.guards import divergence_note
 from scintrack.io import open_dataset

@@ -1,6 +1,10 @@
 """Experiment rule entry point: a single-shard (experiment, scenario), run and merged in one job
 (:func:`scintrack.experiments.shard_job.single_result`)."""
 
+from scintrack.pipeline.job_client import delegate
+
+delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
+
 from scintrack import runlog
 from scintrack.experiments.shard_job import single_result
 from scintrack.io import write_netcdf

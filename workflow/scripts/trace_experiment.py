@@ -1,6 +1,10 @@
 """Sec. VI-E rule entry point: the static (rule trace_static) or dynamics
 (rule trace_dynamics) experiment on one event; every setting from ``params.run``."""
 
+from scintrack.pipeline.job_client import delegate
+
+delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
+
 from scintrack import runlog
 from scintrack.experiments.traces import dynamics_experiment, static_experiment
 from scintrack.io import open_dataset, provenance, write_netcdf

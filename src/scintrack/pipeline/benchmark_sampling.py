@@ -21,6 +21,10 @@ columns, ``max_rss``, ``max_vms``, ``io_in``/``io_out``, ``mean_load`` and
 ``cpu_time`` are computed as in Snakemake 9.27.  The project reads only
 ``s`` and ``max_rss`` (:mod:`.resources`, the archive's run metadata).
 
+A job that runs in a fork of the job server (:mod:`.job_server`) is sampled
+with that fork (:func:`follow_forks`): the fork is the server's child, not the
+job process's, so the process tree alone would miss it.
+
 It changes the Snakemake process only (the Snakefile calls :func:`install`
 while it is parsed, which every Snakemake process does, also a cluster job's),
 never a job's results.  If the pinned Snakemake ever lacks the class this
@@ -32,6 +36,34 @@ from __future__ import annotations
 import time
 
 MB = 1024 * 1024
+#: The job server's folder of ``<job pid>`` files holding the pid of the fork that runs that job
+#: (:mod:`.job_server`), or None: such a fork is sampled as part of the job's process tree.
+_FORKS_DIR = None
+
+
+def follow_forks(folder) -> None:
+    """Count the job server's fork of a job with that job (``folder``: the server's pid files; None: stop)."""
+    global _FORKS_DIR
+    _FORKS_DIR = folder
+
+
+def _with_forks(procs: list) -> list:
+    """``procs`` plus, for each job process the job server runs in a fork, that fork."""
+    import psutil
+
+    if _FORKS_DIR is None:
+        return procs
+    extra = []
+    for proc in procs:
+        try:
+            child = int((_FORKS_DIR / str(proc.pid)).read_text())
+        except (OSError, ValueError):
+            continue
+        try:
+            extra.append(psutil.Process(child))
+        except psutil.Error:
+            continue
+    return procs + extra
 
 
 def _update_record(self) -> None:
@@ -41,7 +73,7 @@ def _update_record(self) -> None:
     record = self.bench_record
     now = time.time()
     try:
-        procs = [self.main, *self.main.children(recursive=True)]
+        procs = _with_forks([self.main, *self.main.children(recursive=True)])
     except psutil.NoSuchProcess:  # the job ended before this sample
         record.process_gone = True
         return

@@ -1,0 +1,493 @@
+"""A warm job server for local runs: each job's Python script runs in a fork of one process that imported the libraries once.
+
+Why: a job of this workflow pays ~1.5-2 CPU-s before it computes anything
+(``import scipy.signal`` alone 0.7 s, xarray, netCDF4, numba's CPU target 0.5 s,
+statsmodels, matplotlib), and a full run has ~270 jobs, most of which compute
+for less than a second (``docs/performance.md``, tenth round).  A fork of a
+process that has imported all of it starts in milliseconds, and the pages
+it inherited are shared until written.
+
+How: :func:`start` (the Snakefile's ``onstart``, local execution only, when
+enough Python-script jobs are to run) launches ``python -m
+scintrack.pipeline.job_server`` and waits until it has imported
+:data:`PRELOAD` and the workflow scripts' own imports.  The server listens on
+a Unix socket (``$SCINTRACK_JOB_SERVER_ADDR``, inherited by the jobs).  Each
+job process (:func:`.job_client.delegate`, the first line of every workflow
+script) sends its argument vector, working directory, environment and its
+three standard streams; the server forks; the child takes them over and runs
+the job's script (Snakemake's temporary script, preamble included) exactly as
+``python <script>`` would, then ends without the interpreter's teardown (as
+:mod:`scintrack.fast_exit` does for every job).  The server reaps the child
+and sends the job process its exit status and resource use; the job process
+exits the same way.  :func:`stop` (``onsuccess``/``onerror``) ends it.
+
+What makes it safe:
+
+* The server never runs job code itself and stays single-threaded (checked
+  through ``/proc/self/task`` before it serves: a fork copies one thread),
+  with one-thread BLAS pools; every child starts from the same pristine
+  state, so no job sees what another one did.
+* A job runs in a fork only if the environment variables that libraries read
+  at import (thread pools, allocator, numba settings, the numba cache
+  folder, which follows the package's source, the hash seed) and the
+  interpreter equal the server's; otherwise, or if the server cannot be
+  reached, it runs in its own process as before.  A job with ``threads > 1``
+  always runs in its own process.
+* The child takes over the job's full environment, working directory and
+  argument vector before the script runs.
+* The server ends with Snakemake (it checks its parent every second; a
+  Ctrl-C reaches it with the rest of the terminal's process group) and ends
+  its children first; a child whose job process died (its connection
+  closed) kills itself.
+* Snakemake's ``benchmark:`` sampler (:mod:`.benchmark_sampling`) counts a
+  job's child with the job's own process tree (through a pid file per job in
+  the server's folder), so ``max_rss`` and ``cpu_time`` stay the job's.
+
+``SCINTRACK_JOB_SERVER=0`` turns it off (each job then starts its own
+interpreter, as Snakemake does by default); a cluster or any non-local
+executor never uses it.
+"""
+
+from __future__ import annotations
+
+import ast
+import gc
+import importlib
+import os
+import selectors
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from . import job_client
+
+SWITCH_ENV = "SCINTRACK_JOB_SERVER"
+#: Fewer Python-script jobs to run than this: no server (its start-up, ~3 CPU-s, would not pay).
+MIN_JOBS = 6
+#: Imported once by the server (the workflow scripts' own imports are added: :func:`script_imports`).
+PRELOAD = (
+    "numpy", "scipy.signal", "scipy.stats", "scipy.linalg", "scipy.ndimage", "scipy.integrate", "scipy.fft", "scipy.io",
+    "pandas", "xarray", "netCDF4", "numba", "statsmodels.tsa.ar_model", "statsmodels.tsa.stattools",
+    "matplotlib", "matplotlib.pyplot", "snakemake.script", "snakemake.logging", "snakemake.iocontainers",
+    "scintrack.figures.vila_valls_2018", "scintrack.figures.vila_valls_2018_aekf", "scintrack.figures.vila_valls_2018_traces",
+    "scintrack.figures.susi_2014", "scintrack.figures.zhao_jamming", "scintrack.figures.zhao_receiver", "scintrack.figures.ranking",
+    "scintrack.tables.vila_valls_2018", "scintrack.tables.vila_valls_2018_aekf", "scintrack.tables.vila_valls_2018_traces",
+    "scintrack.tables.susi_2014", "scintrack.tables.zhao_jamming", "scintrack.tables.ranking",
+)
+#: Thread pools of the server (and so of its children): one thread, as Snakemake sets for a ``threads: 1`` job.
+ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "GOTO_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
+              "NUMEXPR_NUM_THREADS")
+PID_DIR = "jobs"  # <server folder>/jobs/<job pid>: the pid of the child running that job (for the benchmark sampler)
+
+
+# --- the server process ----------------------------------------------------------------------
+
+
+def script_imports(scripts_dir: Path) -> list[str]:
+    """Modules imported at the top level of the workflow scripts (``workflow/scripts/*.py``)."""
+    found: list[str] = []
+    for path in sorted(scripts_dir.glob("*.py")):
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, ast.Import):
+                found += [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                found.append(node.module)
+    return list(dict.fromkeys(found))
+
+
+def _preload(modules: list[str]) -> list[str]:
+    """Import ``modules`` (failures are reported, not fatal) and ready numba's CPU target; returns the failures."""
+    failed = []
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except Exception as exc:  # noqa: BLE001 - a module that fails here fails in its job, with its own message
+            failed.append(f"{name}: {type(exc).__name__}: {exc}")
+    try:  # numba registers its typing and lowering tables on a target's first use (~0.5 s per process)
+        from numba.core.registry import cpu_target
+
+        cpu_target.typing_context.refresh()
+        cpu_target.target_context.refresh()
+    except Exception as exc:  # noqa: BLE001
+        failed.append(f"numba target: {exc}")
+    return failed
+
+
+def _threads() -> int:
+    try:
+        return len(os.listdir("/proc/self/task"))
+    except OSError:
+        return 1
+
+
+class Server:
+    """The accept/fork/reap loop (one thread)."""
+
+    def __init__(self, folder: Path, parent: int):
+        self.folder = folder
+        self.parent = parent
+        self.path = str(folder / "socket")
+        self.children: dict[int, socket.socket] = {}
+        self.job_pid: dict[int, int] = {}
+        self.stopping = False
+        (folder / PID_DIR).mkdir(exist_ok=True)
+        self.import_env = job_client.import_time_env(os.environ)
+        self.interpreter = job_client.interpreter_id()
+
+    def serve(self, ready_fd: int | None, preload_note: str) -> None:
+        listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        tmp = self.path + ".tmp"
+        listener.bind(tmp)
+        listener.listen(64)
+        os.rename(tmp, self.path)  # the socket appears only when the server can serve
+        wake_r, wake_w = os.pipe()
+        os.set_blocking(wake_w, False)
+        os.set_blocking(wake_r, False)
+        signal.set_wakeup_fd(wake_w)
+        signal.signal(signal.SIGCHLD, lambda *_: None)
+        for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+            signal.signal(sig, self._on_stop)
+        self.listener, self.wake = listener, (wake_r, wake_w)
+        gc.collect()
+        gc.freeze()  # the children's collector never walks (and so never copies) the inherited objects
+        if ready_fd is not None:
+            os.write(ready_fd, f"ready {preload_note}\n".encode())
+            os.close(ready_fd)
+        sel = selectors.DefaultSelector()
+        sel.register(listener, selectors.EVENT_READ, "accept")
+        sel.register(wake_r, selectors.EVENT_READ, "wake")
+        try:
+            while not self.stopping:
+                for key, _ in sel.select(timeout=1.0):
+                    if key.data == "accept":
+                        self._accept()
+                    else:
+                        try:
+                            while os.read(wake_r, 512):
+                                pass
+                        except BlockingIOError:
+                            pass
+                self._reap()
+                if os.getppid() != self.parent:
+                    break  # Snakemake is gone
+        finally:
+            self._shutdown()
+
+    def _on_stop(self, *_):
+        self.stopping = True
+
+    def _accept(self) -> None:
+        try:
+            conn, _ = self.listener.accept()
+        except OSError:
+            return
+        fds: list[int] = []
+        try:
+            conn.settimeout(10.0)
+            request, fds = job_client.recv_message(conn, max_fds=3)
+            reason = self._refusal(request, fds)
+            if reason:
+                job_client.send_message(conn, {"refused": reason})
+                raise ConnectionAbortedError(reason)
+            sys.stdout.flush()
+            sys.stderr.flush()  # nothing buffered here is written again by the child
+            pid = os.fork()
+            if pid == 0:
+                self._child(conn, request, fds)  # never returns
+            self.children[pid] = conn
+            self.job_pid[pid] = int(request.get("client_pid", 0))
+            pid_file = self.folder / PID_DIR / str(self.job_pid[pid])
+            pid_file.with_suffix(".tmp").write_text(str(pid))
+            os.replace(pid_file.with_suffix(".tmp"), pid_file)
+            job_client.send_message(conn, {"pid": pid})
+        except (OSError, ValueError, ConnectionError) as exc:
+            print(f"job server: request not served: {exc}", file=sys.stderr)
+            conn.close()
+        finally:
+            for fd in fds:
+                os.close(fd)
+
+    def _refusal(self, request: dict, fds: list[int]) -> str:
+        if len(fds) != 3:
+            return "the three standard streams were not passed"
+        if request.get("interpreter") != self.interpreter:
+            return "another interpreter"
+        if request.get("import_env") != self.import_env:
+            diff = sorted(set(request.get("import_env", {}).items()) ^ set(self.import_env.items()))
+            return f"import-time environment differs: {diff[:4]}"
+        return ""
+
+    def _child(self, conn: socket.socket, request: dict, fds: list[int]) -> None:
+        """In the fork: become the job's process, run its script, exit with its status."""
+        code = 1
+        try:
+            signal.set_wakeup_fd(-1)
+            for sig in (signal.SIGCHLD, signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+                signal.signal(sig, signal.SIG_DFL)
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            self.listener.close()
+            for fd in self.wake:
+                os.close(fd)
+            for other in self.children.values():
+                other.close()
+            for target, fd in zip((0, 1, 2), fds):
+                os.dup2(fd, target)
+            for fd in fds:
+                os.close(fd)
+            fds.clear()
+            os.chdir(request["cwd"])
+            os.environ.clear()
+            os.environ.update(request["env"])
+            sys.argv = list(request["argv"])
+            job_client.IN_CHILD = True
+            _watch_job_process(conn)
+            code = _run_script(sys.argv[0])
+        except BaseException:  # noqa: BLE001 - the child must end here whatever happens
+            try:
+                import traceback
+
+                traceback.print_exc()
+            except BaseException:  # noqa: BLE001
+                pass
+        finally:
+            _end_child(code)
+
+    def _reap(self) -> None:
+        while self.children:
+            try:
+                pid, status, usage = os.wait4(-1, os.WNOHANG)
+            except ChildProcessError:
+                return
+            if pid == 0:
+                return
+            conn = self.children.pop(pid, None)
+            job = self.job_pid.pop(pid, 0)
+            (self.folder / PID_DIR / str(job)).unlink(missing_ok=True)
+            if conn is None:
+                continue
+            msg = {"code": os.waitstatus_to_exitcode(status), "user_s": usage.ru_utime, "sys_s": usage.ru_stime,
+                   "max_rss_mb": usage.ru_maxrss / 1024.0}
+            if os.WIFSIGNALED(status):
+                msg = {**msg, "signal": os.WTERMSIG(status), "code": 128 + os.WTERMSIG(status)}
+            try:
+                job_client.send_message(conn, msg)
+            except OSError:
+                pass
+            conn.close()
+
+    def _shutdown(self) -> None:
+        for pid in list(self.children):
+            try:
+                os.kill(pid, signal.SIGTERM)
+            except ProcessLookupError:
+                pass
+        end = time.monotonic() + 5.0
+        while self.children and time.monotonic() < end:
+            self._reap()
+            time.sleep(0.05)
+        for pid in list(self.children):
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        try:
+            os.unlink(self.path)
+        except OSError:
+            pass
+
+
+def _watch_job_process(conn: socket.socket) -> None:
+    """Kill this child when its job process goes away (the connection closes)."""
+    import threading
+
+    def watch():
+        try:
+            conn.settimeout(None)
+            while conn.recv(64):
+                pass
+        except OSError:
+            pass
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    threading.Thread(target=watch, daemon=True, name="job-process-watch").start()
+
+
+def _run_script(path: str) -> int:
+    """Run ``path`` as ``__main__`` like ``python path`` does; its exit code (uncaught exceptions through ``sys.excepthook``)."""
+    import runpy
+
+    sys.path[0] = os.path.dirname(os.path.abspath(path))
+    try:
+        runpy.run_path(path, run_name="__main__")
+    except SystemExit as exc:
+        if exc.code is None:
+            return 0
+        if isinstance(exc.code, int):
+            return exc.code
+        print(exc.code, file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        sys.excepthook(*sys.exc_info())
+        return 128 + signal.SIGINT
+    except BaseException:  # noqa: BLE001 - reported as Python would, then a failed exit
+        sys.excepthook(*sys.exc_info())
+        return 1
+    return 0
+
+
+def _end_child(code: int) -> None:
+    """The interpreter's exit minus its teardown: atexit handlers (log files), flushed streams, then ``_exit``."""
+    import atexit
+
+    try:
+        atexit._run_exitfuncs()
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except Exception:  # noqa: BLE001
+                pass
+        os._exit(code)
+
+
+def main(argv: list[str] | None = None) -> None:
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--folder", required=True)
+    ap.add_argument("--parent", type=int, required=True)
+    ap.add_argument("--ready-fd", type=int)
+    ap.add_argument("--scripts", required=True, help="the workflow's scripts folder (their imports are preloaded)")
+    ap.add_argument("--preload", help="comma-separated modules to import instead of PRELOAD and the scripts' imports (tests)")
+    args = ap.parse_args(argv)
+    if os.getppid() != args.parent:
+        return
+    t0 = time.process_time()
+    modules = args.preload.split(",") if args.preload is not None else [*PRELOAD, *script_imports(Path(args.scripts))]
+    failed = _preload([m for m in modules if m])
+    for line in failed:
+        print(f"job server: not preloaded: {line}", file=sys.stderr)
+    n = _threads()
+    if n != 1:
+        msg = f"error {n} threads after the imports: forking would copy one of them; jobs run in their own processes"
+        print(f"job server: {msg}", file=sys.stderr)
+        if args.ready_fd is not None:
+            os.write(args.ready_fd, (msg + "\n").encode())
+        return
+    Server(Path(args.folder), args.parent).serve(args.ready_fd, f"{time.process_time() - t0:.2f} CPU-s of imports")
+
+
+# --- the Snakemake side ----------------------------------------------------------------------
+
+_RUNNING: dict[str, object] = {}
+
+
+def wanted(workflow) -> bool:
+    """Whether this Snakemake process should start a server: local execution, not switched off, enough script jobs."""
+    if os.environ.get(SWITCH_ENV, "1").strip().lower() in ("0", "off", "no", "false"):
+        return False
+    try:
+        if not workflow.local_exec or workflow.remote_exec or workflow.subprocess_exec:
+            return False
+        jobs = [j for j in workflow.dag.needrun_jobs() if str(getattr(j.rule, "script", "") or "").endswith(".py")]
+    except Exception:  # noqa: BLE001 - an API this does not know: no server
+        return False
+    return len(jobs) >= MIN_JOBS
+
+
+def start(workflow, scripts: str, timeout_s: float = 120.0) -> str | None:
+    """Start the server for this run if :func:`wanted`; its address (also exported to the jobs), or None."""
+    if _RUNNING or not wanted(workflow):
+        return None
+    launched = launch(scripts, timeout_s=timeout_s)
+    if launched is None:
+        return None
+    proc, folder, addr = launched
+    os.environ[job_client.ADDR_ENV] = addr
+    _RUNNING.update(proc=proc, folder=folder)
+    from . import benchmark_sampling
+
+    benchmark_sampling.follow_forks(folder / PID_DIR)
+    import atexit
+
+    atexit.register(stop)
+    return addr
+
+
+def launch(scripts: str, timeout_s: float = 120.0, preload: list[str] | None = None) -> tuple[subprocess.Popen, Path, str] | None:
+    """Start a server (child of this process) and wait until it serves: ``(process, folder, address)``, or None if it failed.
+
+    ``preload``: modules to import instead of :data:`PRELOAD` and the scripts' imports (the tests' light server).
+    """
+    folder = Path(tempfile.mkdtemp(prefix="scintrack-jobs-"))
+    env = dict(os.environ)
+    for var in ONE_THREAD:
+        env[var] = "1"
+    read_fd, write_fd = os.pipe()
+    log = open(folder / "server.log", "ab")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "scintrack.pipeline.job_server", "--folder", str(folder), "--parent", str(os.getpid()),
+         "--ready-fd", str(write_fd), "--scripts", scripts, *(["--preload", ",".join(preload)] if preload is not None else [])],
+        env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=log, pass_fds=(write_fd,), close_fds=True,
+    )
+    os.close(write_fd)
+    log.close()
+    line = _read_line(read_fd, timeout_s)
+    os.close(read_fd)
+    if not line.startswith("ready"):
+        proc.kill()
+        proc.wait()
+        print(f"job server not started ({line or 'no answer'}; see {folder / 'server.log'}): every job starts its own interpreter",
+              file=sys.stderr)
+        return None
+    return proc, folder, f"{socket.gethostname()}|{folder / 'socket'}"
+
+
+def _read_line(fd: int, timeout_s: float) -> str:
+    import select
+
+    end = time.monotonic() + timeout_s
+    buf = b""
+    while b"\n" not in buf and time.monotonic() < end:
+        ready, _, _ = select.select([fd], [], [], max(0.0, end - time.monotonic()))
+        if not ready:
+            break
+        chunk = os.read(fd, 4096)
+        if not chunk:
+            break
+        buf += chunk
+    return buf.decode(errors="replace").strip()
+
+
+def stop() -> None:
+    """End the server of this run (its children first), remove its folder and the jobs' address."""
+    proc = _RUNNING.pop("proc", None)
+    folder = _RUNNING.pop("folder", None)
+    os.environ.pop(job_client.ADDR_ENV, None)
+    if proc is None:
+        return
+    from . import benchmark_sampling
+
+    benchmark_sampling.follow_forks(None)
+    shutdown(proc, folder)
+
+
+def shutdown(proc: subprocess.Popen, folder: Path) -> None:
+    """Stop a server started by :func:`launch` and remove its folder."""
+    proc.terminate()
+    try:
+        proc.wait(timeout=15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+    import shutil
+
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()

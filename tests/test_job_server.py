@@ -1,0 +1,170 @@
+"""The warm job server (scintrack.pipeline.job_server / job_client): a job's script runs in a fork of the
+server with the job's own streams, environment, working directory and arguments, its exit status comes
+back, signals reach it, it dies with its job process, and a job the server cannot serve runs in its own
+process.  A light server (numpy only) keeps these tests quick; the workflow's real server runs in the
+smoke DAG, and the one-core build (tests/test_reproducibility.py) compares its results, made without the
+server, with the smoke run's."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+from conftest import REPO
+
+from scintrack.pipeline import benchmark_sampling, job_client, job_server
+
+SCRIPT = textwrap.dedent(
+    """
+    import json, os, sys, time
+    sys.path.insert(0, {src!r})
+    from scintrack.pipeline.job_client import delegate
+    delegate(int(os.environ.get("T_THREADS", "1")))
+    mode = os.environ.get("T_MODE", "")
+    if mode == "sleep":
+        with open(os.environ["T_MARKER"] + ".tmp", "w") as f:
+            f.write(str(os.getpid()))
+        os.replace(os.environ["T_MARKER"] + ".tmp", os.environ["T_MARKER"])
+        time.sleep(60)
+    print(json.dumps({{"pid": os.getpid(), "ppid": os.getppid(), "cwd": os.getcwd(), "value": os.environ.get("T_VALUE"),
+                      "argv": sys.argv[1:], "stdin": sys.stdin.read(), "numpy": "numpy" in sys.modules}}))
+    if mode == "exit3":
+        sys.exit(3)
+    if mode == "raise":
+        raise RuntimeError("boom in the job")
+    """
+)
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    launched = job_server.launch(str(REPO / "workflow" / "scripts"), preload=["numpy"])
+    assert launched is not None, "the light job server did not start"
+    proc, folder, addr = launched
+    yield proc, folder, addr
+    job_server.shutdown(proc, folder)
+
+
+@pytest.fixture()
+def script(tmp_path):
+    path = tmp_path / "job.py"
+    path.write_text(SCRIPT.format(src=str(REPO / "src")))
+    return path
+
+
+def _env(addr: str, **extra: str) -> dict[str, str]:
+    env = dict(os.environ, **{v: "1" for v in job_server.ONE_THREAD}, **extra)
+    env[job_client.ADDR_ENV] = addr
+    return env
+
+
+def _start(script: Path, env: dict[str, str], cwd: Path, *args: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, str(script), *args], env=env, cwd=cwd, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def _wait_gone(pid: int, timeout: float = 10.0) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if not _alive(pid):
+            return True
+        time.sleep(0.02)
+    return False
+
+
+def test_job_runs_in_a_fork_with_its_streams_environment_cwd_and_arguments(server, script, tmp_path):
+    proc, _, addr = server
+    work = tmp_path / "work"
+    work.mkdir()
+    job = _start(script, _env(addr, T_VALUE="from the job"), work, "a", "b c")
+    out, err = job.communicate("on stdin", timeout=60)
+    assert job.returncode == 0, err
+    seen = json.loads(out)
+    assert seen["pid"] != job.pid and seen["ppid"] == proc.pid, "the script did not run in a fork of the server"
+    assert seen["numpy"], "the fork should have the server's imports"
+    assert seen["cwd"] == str(work) and seen["value"] == "from the job" and seen["argv"] == ["a", "b c"]
+    assert seen["stdin"] == "on stdin"
+
+
+@pytest.mark.parametrize(("mode", "code", "text"), [("exit3", 3, ""), ("raise", 1, "RuntimeError: boom in the job")])
+def test_exit_status_and_traceback_come_back(server, script, tmp_path, mode, code, text):
+    _, _, addr = server
+    job = _start(script, _env(addr, T_MODE=mode), tmp_path)
+    out, err = job.communicate("", timeout=60)
+    assert job.returncode == code, err
+    assert json.loads(out)["pid"] != job.pid
+    assert text in err
+
+
+@pytest.mark.parametrize("how", ["TERM", "KILL"])
+def test_a_stopped_job_process_stops_its_fork(server, script, tmp_path, how):
+    proc, folder, addr = server
+    marker = tmp_path / "child.pid"
+    job = _start(script, _env(addr, T_MODE="sleep", T_MARKER=str(marker)), tmp_path)
+    end = time.monotonic() + 60
+    while not marker.exists():
+        assert job.poll() is None and time.monotonic() < end, job.stderr.read() if job.poll() is not None else "no fork started"
+        time.sleep(0.02)
+    child = int(marker.read_text())
+    assert child != job.pid and _alive(child)
+    # the benchmark sampler counts the fork with the job's process
+    benchmark_sampling.follow_forks(folder / job_server.PID_DIR)
+    try:
+        import psutil
+
+        pids = [p.pid for p in benchmark_sampling._with_forks([psutil.Process(job.pid)])]
+    finally:
+        benchmark_sampling.follow_forks(None)
+    assert pids == [job.pid, child]
+    job.send_signal(signal.SIGTERM if how == "TERM" else signal.SIGKILL)
+    job.communicate(timeout=30)
+    assert _wait_gone(child), f"the fork outlived its job process (SIG{how})"
+    assert job.returncode == -(signal.SIGTERM if how == "TERM" else signal.SIGKILL)
+    assert proc.poll() is None, "the server must keep serving"
+
+
+@pytest.mark.parametrize("extra", [{"OMP_NUM_THREADS": "2"}, {"T_THREADS": "2"}, {job_client.ADDR_ENV: "otherhost|/nonexistent"}])
+def test_what_the_server_cannot_serve_runs_in_its_own_process(server, script, tmp_path, extra):
+    _, _, addr = server
+    job = _start(script, {**_env(addr), **extra}, tmp_path)
+    out, err = job.communicate("", timeout=60)
+    assert job.returncode == 0, err
+    assert json.loads(out)["pid"] == job.pid
+
+
+def test_server_stops_its_running_forks(script, tmp_path):
+    launched = job_server.launch(str(REPO / "workflow" / "scripts"), preload=[])
+    assert launched is not None
+    proc, folder, addr = launched
+    marker = tmp_path / "child.pid"
+    job = _start(script, _env(addr, T_MODE="sleep", T_MARKER=str(marker)), tmp_path)
+    end = time.monotonic() + 60
+    while not marker.exists():
+        assert job.poll() is None and time.monotonic() < end
+        time.sleep(0.02)
+    child = int(marker.read_text())
+    job_server.shutdown(proc, folder)
+    assert _wait_gone(child)
+    job.communicate(timeout=30)
+    assert job.returncode != 0, "a job whose fork was stopped must fail"
+    assert not folder.exists()
+
+
+def test_script_imports_lists_the_workflow_scripts_modules():
+    mods = job_server.script_imports(REPO / "workflow" / "scripts")
+    assert "scintrack.experiments.shard_job" in mods and "scintrack.pipeline.job_client" in mods
