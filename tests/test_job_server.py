@@ -39,6 +39,9 @@ SCRIPT = textwrap.dedent(
         sys.exit(3)
     if mode == "raise":
         raise RuntimeError("boom in the job")
+    if mode == "hook":  # as scintrack.errors.install_script_hook: an uncaught error becomes one line
+        sys.excepthook = lambda t, v, tb: sys.stderr.write(f"error: {{v}}\\n")
+        raise ValueError("one clear line")
     """
 )
 
@@ -101,7 +104,8 @@ def test_job_runs_in_a_fork_with_its_streams_environment_cwd_and_arguments(serve
     assert seen["stdin"] == "on stdin"
 
 
-@pytest.mark.parametrize(("mode", "code", "text"), [("exit3", 3, ""), ("raise", 1, "RuntimeError: boom in the job")])
+@pytest.mark.parametrize(("mode", "code", "text"), [("exit3", 3, ""), ("raise", 1, "RuntimeError: boom in the job"),
+                                                  ("hook", 1, "error: one clear line\n")])
 def test_exit_status_and_traceback_come_back(server, script, tmp_path, mode, code, text):
     _, _, addr = server
     job = _start(script, _env(addr, T_MODE=mode), tmp_path)
@@ -109,6 +113,8 @@ def test_exit_status_and_traceback_come_back(server, script, tmp_path, mode, cod
     assert job.returncode == code, err
     assert json.loads(out)["pid"] != job.pid
     assert text in err
+    if mode == "hook":
+        assert err == text, "the script's own excepthook reports the error, nothing else"
 
 
 @pytest.mark.parametrize("how", ["TERM", "KILL"])
