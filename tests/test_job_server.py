@@ -174,3 +174,26 @@ def test_server_stops_its_running_forks(script, tmp_path):
 def test_script_imports_lists_the_workflow_scripts_modules():
     mods = job_server.script_imports(REPO / "workflow" / "scripts")
     assert "scintrack.experiments.shard_job" in mods and "scintrack.pipeline.job_client" in mods
+
+
+def test_server_ends_and_cleans_up_when_snakemake_dies(tmp_path):
+    """The server's parent (Snakemake) killed outright: the server stops within seconds and removes its folder."""
+    parent = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(f"""
+            import sys, time
+            sys.path.insert(0, {str(REPO / "src")!r})
+            from scintrack.pipeline import job_server
+            proc, folder, addr = job_server.launch({str(REPO / "workflow" / "scripts")!r}, preload=[])
+            print(proc.pid, folder, flush=True)
+            time.sleep(120)
+        """)],
+        stdout=subprocess.PIPE, text=True)
+    pid, folder = parent.stdout.readline().split()
+    assert _alive(int(pid)) and Path(folder, "socket").exists()
+    parent.kill()
+    parent.wait()
+    assert _wait_gone(int(pid)), "the server outlived its parent"
+    end = time.monotonic() + 5
+    while Path(folder).exists() and time.monotonic() < end:
+        time.sleep(0.05)
+    assert not Path(folder).exists()

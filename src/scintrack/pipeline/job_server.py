@@ -134,6 +134,7 @@ class Server:
         self.children: dict[int, socket.socket] = {}
         self.job_pid: dict[int, int] = {}
         self.stopping = False
+        self.orphaned = False
         (folder / PID_DIR).mkdir(exist_ok=True)
         self.import_env = job_client.import_time_env(os.environ)
         self.interpreter = job_client.interpreter_id()
@@ -173,9 +174,14 @@ class Server:
                             pass
                 self._reap()
                 if os.getppid() != self.parent:
-                    break  # Snakemake is gone
+                    self.orphaned = True  # Snakemake is gone: nobody else will remove the folder
+                    break
         finally:
             self._shutdown()
+            if self.orphaned:
+                import shutil
+
+                shutil.rmtree(self.folder, ignore_errors=True)
 
     def _on_stop(self, *_):
         self.stopping = True
