@@ -26,6 +26,7 @@ os.environ.setdefault("GLIBC_TUNABLES", "glibc.malloc.mmap_threshold=1073741824:
 
 sys.path.insert(0, os.path.join(workflow.basedir, "src"))
 from scintrack.config import ConfigError, load_config
+from scintrack.pipeline import job_server
 from scintrack.pipeline.benchmark_sampling import install as _light_benchmark_sampling
 from scintrack.pipeline.scheduler_timers import cancel_pending
 
@@ -57,8 +58,6 @@ onstart:
         print(f"removed {len(_removed)} temporary file(s) left by an interrupted run", file=sys.stderr)
     # Local runs: one warm process imports the libraries once and each job's script
     # runs in a fork of it (src/scintrack/pipeline/job_server.py; SCINTRACK_JOB_SERVER=0 turns it off).
-    from scintrack.pipeline import job_server
-
     job_server.start(workflow, os.path.join(workflow.basedir, "workflow", "scripts"))
 
 
@@ -67,15 +66,11 @@ onstart:
 # exits at once (src/scintrack/pipeline/scheduler_timers.py).
 onsuccess:
     cancel_pending()
-    from scintrack.pipeline import job_server
-
     job_server.stop()
 
 
 onerror:
     cancel_pending()
-    from scintrack.pipeline import job_server
-
     job_server.stop()
 
 

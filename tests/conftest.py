@@ -89,11 +89,12 @@ def experiment_jobs(experiments) -> dict[str, int]:
     return {rule: n for rule, n in jobs.items() if n}
 
 
-def run_targets(workdir: Path, *targets: str, overlays=(), timeout: float = 600, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
+def run_targets(workdir: Path, *targets: str, overlays=(), timeout: float = 600) -> subprocess.CompletedProcess:
     """Build ``targets`` (rule names or files; before --configfile, which takes every following word)."""
     cmd = [SNAKEMAKE, *targets, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--cores", "2",
            "--configfile", str(REPO / "config" / "smoke.yaml"), *map(str, overlays)]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=dict(os.environ, PYTHONHASHSEED="0", **(env or {})))
+    env = dict(os.environ, PYTHONHASHSEED="0")
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
 
 
 #: facts about this session's selection (set by :func:`pytest_collection_finish`)

@@ -63,7 +63,7 @@ def script(tmp_path):
 
 
 def _env(addr: str, **extra: str) -> dict[str, str]:
-    env = dict(os.environ, **{v: "1" for v in job_server.ONE_THREAD}, **extra)
+    env = dict(os.environ, **dict.fromkeys(job_client.THREAD_POOL_VARS, "1"), **extra)
     env[job_client.ADDR_ENV] = addr
     return env
 

@@ -32,9 +32,11 @@ import sys
 ADDR_ENV = "SCINTRACK_JOB_SERVER_ADDR"
 #: Environment variables read when a library is imported (thread pools, allocator, numba's
 #: settings, hash seed): a job may run in a fork of the server only if its values equal the server's.
+#: The thread pools Snakemake sizes from a job's ``threads`` (``snakemake.shell``).
+THREAD_POOL_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "GOTO_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
+                    "NUMEXPR_NUM_THREADS")
 IMPORT_TIME_PREFIXES = ("NUMBA_", "SCINTRACK_NUMBA_")
-IMPORT_TIME_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "GOTO_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
-                    "NUMEXPR_NUM_THREADS", "GLIBC_TUNABLES", "PYTHONHASHSEED", "MPLBACKEND", "PYTHONOPTIMIZE")
+IMPORT_TIME_VARS = (*THREAD_POOL_VARS, "GLIBC_TUNABLES", "PYTHONHASHSEED", "MPLBACKEND", "PYTHONOPTIMIZE")
 
 #: True in a child of the server (set by the server before it runs the script): never delegate again.
 IN_CHILD = False

@@ -18,8 +18,8 @@ three standard streams; the server forks; the child takes them over and runs
 the job's script (Snakemake's temporary script, preamble included) exactly as
 ``python <script>`` would, then ends without the interpreter's teardown (as
 :mod:`scintrack.fast_exit` does for every job).  The server reaps the child
-and sends the job process its exit status and resource use; the job process
-exits the same way.  :func:`stop` (``onsuccess``/``onerror``) ends it.
+and sends the job process its exit status; the job process exits the same
+way.  :func:`stop` (``onsuccess``/``onerror``) ends it.
 
 What makes it safe:
 
@@ -78,9 +78,6 @@ PRELOAD = (
     "scintrack.tables.vila_valls_2018", "scintrack.tables.vila_valls_2018_aekf", "scintrack.tables.vila_valls_2018_traces",
     "scintrack.tables.susi_2014", "scintrack.tables.zhao_jamming", "scintrack.tables.ranking",
 )
-#: Thread pools of the server (and so of its children): one thread, as Snakemake sets for a ``threads: 1`` job.
-ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "GOTO_NUM_THREADS", "VECLIB_MAXIMUM_THREADS",
-              "NUMEXPR_NUM_THREADS")
 PID_DIR = "jobs"  # <server folder>/jobs/<job pid>: the pid of the child running that job (for the benchmark sampler)
 
 
@@ -131,8 +128,7 @@ class Server:
         self.folder = folder
         self.parent = parent
         self.path = str(folder / "socket")
-        self.children: dict[int, socket.socket] = {}
-        self.job_pid: dict[int, int] = {}
+        self.children: dict[int, tuple[socket.socket, int]] = {}  # fork pid -> (its connection, its job's pid)
         self.stopping = False
         self.orphaned = False
         (folder / PID_DIR).mkdir(exist_ok=True)
@@ -204,9 +200,10 @@ class Server:
             pid = os.fork()
             if pid == 0:
                 self._child(conn, request, fds)  # never returns
-            self.children[pid] = conn
-            self.job_pid[pid] = int(request.get("client_pid", 0))
-            pid_file = self.folder / PID_DIR / str(self.job_pid[pid])
+            job = int(request.get("client_pid", 0))
+            self.children[pid] = (conn, job)
+            # a plain temporary + rename, not scintrack.atomic: its test hook (SCINTRACK_HOLD_BEFORE_RENAME) would delay every job
+            pid_file = self.folder / PID_DIR / str(job)
             pid_file.with_suffix(".tmp").write_text(str(pid))
             os.replace(pid_file.with_suffix(".tmp"), pid_file)
             job_client.send_message(conn, {"pid": pid})
@@ -232,13 +229,13 @@ class Server:
         code = 1
         try:
             signal.set_wakeup_fd(-1)
-            for sig in (signal.SIGCHLD, signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+            for sig in (signal.SIGCHLD, signal.SIGTERM, signal.SIGHUP):
                 signal.signal(sig, signal.SIG_DFL)
-            signal.signal(signal.SIGINT, signal.default_int_handler)
+            signal.signal(signal.SIGINT, signal.default_int_handler)  # Python's own default
             self.listener.close()
             for fd in self.wake:
                 os.close(fd)
-            for other in self.children.values():
+            for other, _ in self.children.values():
                 other.close()
             for target, fd in zip((0, 1, 2), fds):
                 os.dup2(fd, target)
@@ -265,20 +262,18 @@ class Server:
     def _reap(self) -> None:
         while self.children:
             try:
-                pid, status, usage = os.wait4(-1, os.WNOHANG)
+                pid, status = os.waitpid(-1, os.WNOHANG)
             except ChildProcessError:
                 return
             if pid == 0:
                 return
-            conn = self.children.pop(pid, None)
-            job = self.job_pid.pop(pid, 0)
-            (self.folder / PID_DIR / str(job)).unlink(missing_ok=True)
-            if conn is None:
+            if pid not in self.children:
                 continue
-            msg = {"code": os.waitstatus_to_exitcode(status), "user_s": usage.ru_utime, "sys_s": usage.ru_stime,
-                   "max_rss_mb": usage.ru_maxrss / 1024.0}
+            conn, job = self.children.pop(pid)
+            (self.folder / PID_DIR / str(job)).unlink(missing_ok=True)
+            msg = {"code": os.waitstatus_to_exitcode(status)}
             if os.WIFSIGNALED(status):
-                msg = {**msg, "signal": os.WTERMSIG(status), "code": 128 + os.WTERMSIG(status)}
+                msg = {"signal": os.WTERMSIG(status), "code": 128 + os.WTERMSIG(status)}
             try:
                 job_client.send_message(conn, msg)
             except OSError:
@@ -430,9 +425,8 @@ def launch(scripts: str, timeout_s: float = 120.0, preload: list[str] | None = N
     ``preload``: modules to import instead of :data:`PRELOAD` and the scripts' imports (the tests' light server).
     """
     folder = Path(tempfile.mkdtemp(prefix="scintrack-jobs-"))
-    env = dict(os.environ)
-    for var in ONE_THREAD:
-        env[var] = "1"
+    # thread pools of one thread, as Snakemake sets them for a ``threads: 1`` job
+    env = {**os.environ, **dict.fromkeys(job_client.THREAD_POOL_VARS, "1")}
     read_fd, write_fd = os.pipe()
     log = open(folder / "server.log", "ab")
     proc = subprocess.Popen(
