@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sl
 import xarray as xr
+from scipy.signal import lfilter
 
 from scintrack.experiments import floors as fl
 from scintrack.models.ar import ScintillationAR
@@ -145,6 +146,30 @@ def test_gls_and_kriging_equal_the_kalman_smoother(q):
                                         stride=7)
     rts = rts_theta_d_variance(phi, var_s, q, n)
     np.testing.assert_allclose(var, rts[np.round(t_eval / TS).astype(int)], rtol=1e-4)
+
+
+@pytest.mark.parametrize("q", [1.0, 0.01])
+def test_differenced_kriging_equals_the_dense_solve(q):
+    """Floor (c) by the third-difference / Toeplitz route = the dense Cholesky of C_s + C_d + R_phi I (strongly
+    correlated theta_s with much low-frequency power, as the CSM's unwrapped phase)."""
+    n = 1500
+    rng = np.random.default_rng(5)
+    walk = lfilter([1.0], [1.0, -0.999], rng.standard_normal((20, n + 2000)), axis=1)[:, 2000:]  # slow, as unwrapped phase
+    acf = fl.autocovariance(0.1 * walk + lfilter([1.0], [1.0, -0.9], rng.standard_normal((20, n)), axis=1))
+    kw = dict(ts=TS, cn0_dbhz=CN0, duration_s=n * TS, steady_start_s=5.0, q_jerk=q, stride=13)
+    t1, v1 = fl.gls_error_variance(acf, method="differenced", **kw)
+    t2, v2 = fl.gls_error_variance(acf, method="dense", **kw)
+    np.testing.assert_array_equal(t1, t2)
+    np.testing.assert_allclose(v1, v2, rtol=1e-4)
+
+
+def test_differenced_kriging_refuses_an_ill_conditioned_g():
+    """A tiny q_jerk makes G's low-frequency modes vanish: "auto" falls back to the dense solve, "differenced" says why."""
+    acf = ar1_acf(0.99, 1.0, 800)
+    kw = dict(ts=TS, cn0_dbhz=CN0, duration_s=8.0, steady_start_s=2.0, q_jerk=1e-6, stride=9)
+    with pytest.raises(np.linalg.LinAlgError, match="ill-conditioned"):
+        fl.gls_error_variance(acf, method="differenced", **kw)
+    np.testing.assert_array_equal(fl.gls_error_variance(acf, **kw)[1], fl.gls_error_variance(acf, method="dense", **kw)[1])
 
 
 @pytest.mark.parametrize("q", [0.0, 1.0])
