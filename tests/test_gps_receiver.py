@@ -17,6 +17,7 @@ from test_gps_dataset import small_config
 from scintrack.data.gps_jamming import gps_jamming_params
 from scintrack.data.gps_jamming_build import build
 from scintrack.experiments import gps_prompts as gp
+from scintrack.experiments.gps_channel_result import channel_result
 from scintrack.experiments.gps_receiver import channel, decoded_ephemeris, prior_sources
 from scintrack.pipeline import params as P
 from scintrack.pipeline.project import project_file
@@ -172,3 +173,15 @@ def test_fig4_map_from_the_channels_prediction_equals_its_own_short_span_predict
     np.testing.assert_array_equal(short.bits, shared.bits[:n])
     np.testing.assert_array_equal(short.mask, shared.mask[:n])
     assert not shared.mask[n:].all()  # the later frames have bits an upload changes: the prefix check is not vacuous
+
+
+def test_channel_result_does_not_depend_on_the_trial_batch(run):
+    """``trial_batch`` bounds a channel job's memory; every output, ``rmse_t`` included, is the same bits for any batch."""
+    ds, k, prm, out, t20 = run
+    results = []
+    for batch in (3, 2):
+        p = copy.deepcopy(prm)
+        p["receiver"]["trial_batch"] = batch
+        results.append(channel_result(ds, 1, p, RINEX, trials=3))
+    for name in results[0].data_vars:
+        np.testing.assert_array_equal(results[0][name].values, results[1][name].values, err_msg=name)

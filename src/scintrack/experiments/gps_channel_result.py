@@ -59,11 +59,14 @@ def _trackers(params: Mapping[str, Any]) -> list[str]:
 def _metrics(err: np.ndarray, ferr: np.ndarray, jammed: np.ndarray, lock: Mapping[str, Any]) -> dict[str, np.ndarray]:
     ts = gp.BIT_MS * gp.CODE_PERIOD_S
     locked = gp.lock_state(err, ts, float(lock["threshold_rad"]), float(lock["window_s"]))
+    def per_trial(fun, x):  # one 1-D reduction per trial: numpy sums the rows of a 2-D array in an order that depends
+        return np.array([fun(row) for row in x])  # on how many rows it has, so a trial's value would follow trial_batch
+
     return {
-        "phase_rmse_clean": np.sqrt(np.mean(err[:, ~jammed] ** 2, axis=1)),
-        "phase_rmse_jammed": np.sqrt(np.mean(err[:, jammed] ** 2, axis=1)),
-        "freq_var_clean": np.var(ferr[:, ~jammed], axis=1),
-        "freq_var_jammed": np.var(ferr[:, jammed], axis=1),
+        "phase_rmse_clean": np.sqrt(per_trial(np.mean, err[:, ~jammed] ** 2)),
+        "phase_rmse_jammed": np.sqrt(per_trial(np.mean, err[:, jammed] ** 2)),
+        "freq_var_clean": per_trial(np.var, ferr[:, ~jammed]),
+        "freq_var_jammed": per_trial(np.var, ferr[:, jammed]),
         "lol_events": gp.loss_of_lock_events(locked),
         "in_lock_jammed": np.mean(locked[:, jammed], axis=1),
     }
@@ -148,7 +151,9 @@ def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemeri
             m["bit_error_clean"] = np.mean(wrong[:, ~jammed], axis=1)
             for key, v in m.items():
                 per_trial.setdefault(f"{name}:{key}", []).append(np.asarray(v, dtype=float))
-            sq_sum[name] = sq_sum.get(name, 0.0) + np.sum(err**2, axis=0)
+            sq = sq_sum.setdefault(name, np.zeros(err.shape[1]))
+            for row in err:  # trial by trial, in trial order: the same sum whatever the batch (trial_batch is a memory setting)
+                sq += row * row
             if b0 <= fig_trial < b0 + len(trials_b):
                 i = fig_trial - b0
                 example[f"{name}:phase"] = err[i]

@@ -30,6 +30,7 @@ sigma_phi at L1 come out as configured.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -70,10 +71,18 @@ def shaped_screen(white: np.ndarray, n: int, dx: float, spectral_index: float, o
 
 def fresnel_propagate(phase: np.ndarray, dx: float, carrier_hz: float, height_m: float) -> np.ndarray:
     """Complex field on the ground below a thin phase screen (periodic FFT propagation)."""
-    n = phase.size
+    return np.fft.ifft(np.fft.fft(np.exp(1j * phase)) * _fresnel_transfer(phase.size, dx, carrier_hz, height_m))
+
+
+@functools.lru_cache(maxsize=8)
+def _fresnel_transfer(n: int, dx: float, carrier_hz: float, height_m: float) -> np.ndarray:
+    """The Fresnel transfer function ``exp(-i kappa^2 h / (2 k))`` on the screen's FFT grid (read-only; the same for
+    every propagation of a calibration, which propagates a few hundred screens of one size)."""
     k = 2 * np.pi * carrier_hz / C_LIGHT
     kappa = 2 * np.pi * np.fft.fftfreq(n, dx)
-    return np.fft.ifft(np.fft.fft(np.exp(1j * phase)) * np.exp(-1j * kappa**2 * height_m / (2 * k)))
+    transfer = np.exp(-1j * kappa**2 * height_m / (2 * k))
+    transfer.setflags(write=False)
+    return transfer
 
 
 def envelope(profile: Sequence[Sequence[float]], n: int, ts: float) -> np.ndarray:
