@@ -197,3 +197,38 @@ def test_server_ends_and_cleans_up_when_snakemake_dies(tmp_path):
     while Path(folder).exists() and time.monotonic() < end:
         time.sleep(0.05)
     assert not Path(folder).exists()
+
+
+def test_server_loads_the_cached_kernels_and_compiles_none(tmp_path, monkeypatch):
+    """A kernel the numba cache holds is loaded once in the server, so a fork calls it without reading the cache;
+    a kernel the cache does not hold is left alone (the server never compiles)."""
+    (tmp_path / "kmod_cached.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n")
+    (tmp_path / "kmod_cold.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef thrice(x):\n    return 3.0 * x\n")
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(tmp_path), os.environ.get("PYTHONPATH", "")]))
+    warm = subprocess.run([sys.executable, "-c", "import kmod_cached; kmod_cached.twice(1.0)"], env=dict(os.environ), capture_output=True,
+                          text=True, timeout=120)
+    assert warm.returncode == 0, warm.stderr
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import kmod_cached
+
+    assert job_server.load_cached_kernels(["kmod_cached"]) == 1  # in this process too: the index entry matches the code
+    assert len(kmod_cached.twice.overloads) == 1
+    launched = job_server.launch(str(REPO / "workflow" / "scripts"), preload=["kmod_cached", "kmod_cold"])
+    assert launched is not None
+    proc, folder, addr = launched
+    try:
+        job = tmp_path / "job.py"
+        job.write_text(textwrap.dedent(f"""
+            import json, os, sys
+            sys.path.insert(0, {str(REPO / "src")!r})
+            from scintrack.pipeline.job_client import delegate
+            delegate(1)
+            import kmod_cached, kmod_cold
+            print(json.dumps({{"ppid": os.getppid(), "cached": len(kmod_cached.twice.overloads), "cold": len(kmod_cold.thrice.overloads)}}))
+            """))
+        out = subprocess.run([sys.executable, str(job)], env=_env(addr), cwd=tmp_path, capture_output=True, text=True, timeout=60)
+        assert out.returncode == 0, out.stderr
+        got = json.loads(out.stdout)
+        assert got == {"ppid": proc.pid, "cached": 1, "cold": 0}
+    finally:
+        job_server.shutdown(proc, folder)
