@@ -52,7 +52,7 @@ MEASURED: dict[str, tuple[float, float]] = {
     "ar_fit_wrapped": (191.8, 42.2),
     "ar_lut_wrapped": (102.3, 3.7),
     "ar_diagnostics": (188.4, 4.8),
-    "vv_floors": (924.8, 58.7),
+    "vv_floors": (491.0, 4.5),  # 2026-12-03 (full run): floor (c) by the differenced O(N^2) route, no N x N matrix
     "tracking_merge": (334.1, 3.0),
     "surrogate_event": (231.8, 15.7),
     "trace_ar_models": (287.5, 5.1),
@@ -65,7 +65,7 @@ MEASURED: dict[str, tuple[float, float]] = {
     "gps_iq_recording": (389.2, 2.1),
     "zhao_cn0_estimates": (350.5, 1.8),
     "zhao_iq_spectrum": (459.3, 3.1),
-    "zhao_channel": (1413.7, 37.3),  # max_rss re-measured 2026-12-02 (full run): each tracker's DLL as soon as its inputs exist
+    "zhao_channel": (1359.8, 37.3),  # max_rss re-measured 2026-12-03 (full run, trial_batch 20, in a fork of the job server)
     "zhao_receiver": (374.1, 2.7),
     "zhao_cn0_sweep_point": (1353.5, 89.4),
 }
@@ -82,11 +82,11 @@ SHARD_KB_PER_TRIAL_EPOCH = {"csm": 0.4, "ar": 0.4, "trace": 0.2}
 SHARD_START_S = 10.0
 SHARD_US_PER_FILTER_EPOCH = 2.0
 
-# Zhao channels (rule zhao_channel), measured with trials 100, trial_batch 25
+# Zhao channels (rule zhao_channel), measured with trials 100, trial_batch 20
 # and duration_s 240: peak memory = ZHAO_BASE_MB + the rest of the measured
 # peak x (trial_batch x duration_s) / measured, wall = SHARD_START_S + the rest
 # of the measured wall x (trials x duration_s) / measured.
-ZHAO_MEASURED_SIZE = {"trials": 100, "trial_batch": 25, "duration_s": 240.0}
+ZHAO_MEASURED_SIZE = {"trials": 100, "trial_batch": 20, "duration_s": 240.0}
 ZHAO_BASE_MB = 300.0
 
 
