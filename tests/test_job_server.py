@@ -232,29 +232,3 @@ def test_server_loads_the_cached_kernels_and_compiles_none(tmp_path, monkeypatch
         assert got == {"ppid": proc.pid, "cached": 1, "cold": 0}
     finally:
         job_server.shutdown(proc, folder)
-
-
-def test_startup_hook_hands_a_snakemake_script_to_the_server_before_it_runs(server, tmp_path):
-    """With the start-up folder on PYTHONPATH (as job_server.start sets it), a script under .snakemake/scripts
-    runs in a fork although it never calls delegate(); any other script starts as usual; a sitecustomize further
-    along the path still runs."""
-    proc, folder, addr = server
-    other = tmp_path / "other_site"
-    other.mkdir()
-    marker = tmp_path / "chained"
-    (other / "sitecustomize.py").write_text(f"open({str(marker)!r}, 'a').write('x')\n")
-    body = "import json, os\nprint(json.dumps({'ppid': os.getppid()}))\n"
-    job = tmp_path / ".snakemake" / "scripts" / "tmpabc123.job.py"
-    job.parent.mkdir(parents=True)
-    job.write_text(body)
-    plain = tmp_path / "plain.py"
-    plain.write_text(body)
-    env = _env(addr, PYTHONPATH=os.pathsep.join([str(job_server.STARTUP_DIR), str(other), str(REPO / "src")]))
-    got = {}
-    for name, path in (("job", job), ("plain", plain)):
-        out = subprocess.run([sys.executable, str(path)], env=env, cwd=tmp_path, capture_output=True, text=True, timeout=60)
-        assert out.returncode == 0, out.stderr
-        got[name] = json.loads(out.stdout)
-    assert got["job"]["ppid"] == proc.pid  # a fork of the server
-    assert got["plain"]["ppid"] == os.getpid()  # its own process
-    assert marker.read_text() == "xx"  # the other sitecustomize ran in both interpreters

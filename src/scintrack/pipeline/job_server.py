@@ -80,9 +80,6 @@ PRELOAD = (
     "scintrack.tables.vila_valls_2018", "scintrack.tables.vila_valls_2018_aekf", "scintrack.tables.vila_valls_2018_traces",
     "scintrack.tables.susi_2014", "scintrack.tables.zhao_jamming", "scintrack.tables.ranking",
 )
-#: Put first on the jobs' ``PYTHONPATH`` while a server runs: its ``sitecustomize`` hands a script job to the
-#: server before Snakemake's preamble runs (``job_startup/sitecustomize.py``).
-STARTUP_DIR = Path(__file__).resolve().parent / "job_startup"
 PID_DIR = "jobs"  # <server folder>/jobs/<job pid>: the pid of the child running that job (for the benchmark sampler)
 
 
@@ -460,9 +457,7 @@ def start(workflow, scripts: str, timeout_s: float = 120.0) -> str | None:
         return None
     proc, folder, addr = launched
     os.environ[job_client.ADDR_ENV] = addr
-    _RUNNING.update(proc=proc, folder=folder, pythonpath=os.environ.get("PYTHONPATH"))
-    # the jobs' interpreters hand themselves over while they start (job_startup/sitecustomize.py)
-    os.environ["PYTHONPATH"] = os.pathsep.join([str(STARTUP_DIR), *filter(None, [os.environ.get("PYTHONPATH")])])
+    _RUNNING.update(proc=proc, folder=folder)
     from . import benchmark_sampling
 
     benchmark_sampling.follow_forks(folder / PID_DIR)
@@ -523,11 +518,6 @@ def stop() -> None:
     os.environ.pop(job_client.ADDR_ENV, None)
     if proc is None:
         return
-    pythonpath = _RUNNING.pop("pythonpath", None)
-    if pythonpath is None:
-        os.environ.pop("PYTHONPATH", None)
-    else:
-        os.environ["PYTHONPATH"] = pythonpath
     from . import benchmark_sampling
 
     benchmark_sampling.follow_forks(None)
