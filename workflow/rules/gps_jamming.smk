@@ -113,6 +113,7 @@ rule zhao_channel:
     resources:
         mem_mb=RES.zhao_channel_mem_mb(config),
         runtime=RES.zhao_channel_runtime(config),
+        trial_batch=int(config["zhao_receiver"]["trial_batch"]),  # memory only: not a param (no result depends on it)
     script:
         "../scripts/zhao_channel.py"
 
@@ -153,5 +154,6 @@ rule zhao_cn0_sweep_point:
     resources:
         mem_mb=RES.mem_mb("zhao_cn0_sweep_point"),
         runtime=RES.runtime("zhao_cn0_sweep_point"),
+        trial_batch=int(config["zhao_receiver"]["trial_batch"]),  # memory only: not a param (no result depends on it)
     script:
         "../scripts/zhao_sweep_point.py"

@@ -102,12 +102,15 @@ def _prediction_map(ds: xr.Dataset, k: int, ephs, header, robust=None) -> tuple[
 
 
 def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemerides_path: str | Path,
-                   log: Callable[..., None] = lambda *a: None, cn0_jammed_dbhz: float | None = None, trials: int | None = None) -> xr.Dataset:
+                   log: Callable[..., None] = lambda *a: None, cn0_jammed_dbhz: float | None = None, trials: int | None = None,
+                   trial_batch: int | None = None) -> xr.Dataset:
+    """One satellite channel over ``trials`` (default ``receiver.trials``) Monte Carlo trials, ``trial_batch`` at a time
+    (default: all at once).  The batch bounds the memory only: every output is the same bits for any batch."""
     k = int(np.flatnonzero(ds["prn"].values == prn)[0])
     ephs, header = _navigation(ephemerides_path)
     rc = params["receiver"]
     n_trials = int(rc["trials"] if trials is None else trials)
-    batch = int(rc["trial_batch"])
+    batch = max(1, int(n_trials if trial_batch is None else trial_batch))
     names = _trackers(params)
     onset = float(ds.attrs["jammer_onset_s"])
     rt = ds["receive_time"].isel(sv=k).values

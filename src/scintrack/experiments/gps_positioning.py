@@ -95,7 +95,7 @@ def receiver_result(ds: xr.Dataset, channels: Sequence[xr.Dataset], params: Mapp
     return out
 
 
-def sweep_point(ds: xr.Dataset, params: Mapping[str, Any], cn0_dbhz: float, ephemerides_path) -> xr.Dataset:
+def sweep_point(ds: xr.Dataset, params: Mapping[str, Any], cn0_dbhz: float, ephemerides_path, trial_batch: int | None = None) -> xr.Dataset:
     """Tracking metrics of every channel with the jammed C/N0 replaced by ``cn0_dbhz`` (``cn0_sweep.trials`` trials).
 
     Only the carrier-to-noise ratio after the onset changes (the jammer's J/S
@@ -105,7 +105,8 @@ def sweep_point(ds: xr.Dataset, params: Mapping[str, Any], cn0_dbhz: float, ephe
     from .gps_channel_result import channel_result
 
     trials = int(params["receiver"]["cn0_sweep"]["trials"])
-    chans = [channel_result(ds, int(p), params, ephemerides_path, cn0_jammed_dbhz=cn0_dbhz, trials=trials) for p in ds["prn"].values]
+    chans = [channel_result(ds, int(p), params, ephemerides_path, cn0_jammed_dbhz=cn0_dbhz, trials=trials, trial_batch=trial_batch)
+             for p in ds["prn"].values]
     out = xr.Dataset({key: (("tracker", "prn", "trial"), np.stack([c[key].values for c in chans], axis=1)) for key in METRICS},
                      coords={"tracker": chans[0]["tracker"].values, "prn": [int(c.attrs["prn"]) for c in chans], "trial": np.arange(trials)})
     out.attrs.update(cn0_jammed_dbhz=float(cn0_dbhz), n_trials=trials, source="synthetic", jammer_onset_s=float(ds.attrs["jammer_onset_s"]))
