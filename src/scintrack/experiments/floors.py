@@ -133,6 +133,7 @@ realisations, with the look-up table's amplitude AR(3).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -348,6 +349,8 @@ def thrice_integrated_covariance(t1: np.ndarray, t2: np.ndarray | None = None, *
 
 #: Third difference: ``(D3 x)_i = sum_a D3[a] x_(i+a)``; it annihilates a quadratic in i.
 D3 = np.array([-1.0, 3.0, -3.0, 1.0])
+#: Autocorrelation of D3 at lags 0..3 ([20, -15, 6, -1]): ``D3 (R I) D3^T`` of white noise of variance R is R times it.
+D3_ACF = np.correlate(D3, D3, "full")[D3.size - 1:]
 #: Largest estimated condition number of G for which floor (c) uses the differenced O(N^2) route (module docstring).
 DIFFERENCED_MAX_COND = 1e12
 
@@ -361,6 +364,17 @@ def _differenced_dynamics_acf(ts: float, q_jerk: float) -> np.ndarray:
     return (M @ thrice_integrated_covariance(t, q_jerk=q_jerk) @ M.T)[0]
 
 
+@functools.lru_cache(maxsize=1)
+def _dynamics_covariance(n: int, ts: float, q_jerk: float) -> np.ndarray:
+    """C_d of :func:`thrice_integrated_covariance` at ``t_k = k ts``, k < n (read-only; the same for every dense (c) solve of a job)."""
+    t = np.arange(n) * ts
+    cd = np.empty((n, n))
+    for r in range(0, n, 500):  # row blocks: no further N x N temporaries
+        cd[r:r + 500] = thrice_integrated_covariance(t[r:r + 500], t, q_jerk=q_jerk)
+    cd.setflags(write=False)
+    return cd
+
+
 def _dense_kriging_variance(cov_s: np.ndarray, k: np.ndarray, X: np.ndarray, *, n: int, ts: float, r_phi: float,
                             q_jerk: float) -> np.ndarray:
     """Floor (c) at epochs ``k`` from the dense Cholesky of ``C = C_s + C_d + R_phi I`` (module docstring)."""
@@ -369,8 +383,7 @@ def _dense_kriging_variance(cov_s: np.ndarray, k: np.ndarray, X: np.ndarray, *, 
     t = np.arange(n) * ts
     C = toeplitz(cov_s[:n])
     C[np.diag_indices(n)] += r_phi
-    for r in range(0, n, 500):  # row blocks of C_d: no further N x N temporaries
-        C[r:r + 500] += thrice_integrated_covariance(t[r:r + 500], t, q_jerk=q_jerk)
+    C += _dynamics_covariance(n, ts, q_jerk)
     try:
         cf = cho_factor(C, lower=True, overwrite_a=True, check_finite=False)
     except np.linalg.LinAlgError as exc:
@@ -399,12 +412,12 @@ def _differenced_kriging_variance(cov_s: np.ndarray, k: np.ndarray, *, n: int, t
     s3 = _differenced_dynamics_acf(ts, q_jerk)
     # spectrum of G on the FFT grid (C_s, white R_phi, MA(2) S3): the condition estimate (C_s's spectrum clipped at 0:
     # a truncated autocovariance that is not a biased sample estimate can dip below, where its Toeplitz section need not)
-    spec_g = (np.maximum(spec, 0.0) + r_phi) * d2 + s3[0] + 2 * s3[1] * np.cos(np.linspace(0, np.pi, spec.size)) \
-        + 2 * s3[2] * np.cos(2 * np.linspace(0, np.pi, spec.size))
+    w = np.linspace(0.0, np.pi, spec.size)  # the rfft grid
+    spec_g = (np.maximum(spec, 0.0) + r_phi) * d2 + s3[0] + 2 * s3[1] * np.cos(w) + 2 * s3[2] * np.cos(2 * w)
     if spec_g.min() <= 0 or spec_g.max() / spec_g.min() > DIFFERENCED_MAX_COND:
         return None
     g = np.fft.irfft(spec * d2, nfft)[:m]  # D3 C_s D3^T: lags 0..m-1
-    g[:4] += r_phi * np.array([20.0, -15.0, 6.0, -1.0]) + s3
+    g[:4] += r_phi * D3_ACF + s3
     h = np.fft.irfft(spec * np.conj(dh), nfft)  # h_j = sum_a D3[a] C_s(j + a), j mod nfft
     h[(-np.arange(4)) % nfft] += r_phi * D3  # and of R_phi I
     V = h[(np.arange(m)[:, None] - k[None, :]) % nfft]  # column j: D3 N e_(k_j)

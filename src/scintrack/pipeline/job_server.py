@@ -416,10 +416,11 @@ def main(argv: list[str] | None = None) -> None:
         return
     t0 = time.process_time()
     modules = args.preload.split(",") if args.preload is not None else [*PRELOAD, *script_imports(Path(args.scripts))]
-    failed = _preload([m for m in modules if m])
+    modules = [m for m in modules if m]
+    failed = _preload(modules)
     for line in failed:
         print(f"job server: not preloaded: {line}", file=sys.stderr)
-    kernels = load_cached_kernels([m for m in modules if m])
+    kernels = load_cached_kernels(modules)
     n = _threads()
     if n != 1:
         msg = f"error {n} threads after the imports: forking would copy one of them; jobs run in their own processes"
