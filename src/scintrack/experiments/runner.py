@@ -88,7 +88,7 @@ from ..trackers.base import TrackerContext
 from . import guards
 from .merge import MONITORS, merge  # noqa: F401  (merge: re-exported; it lives in .merge, light to import)
 from .metrics import slip_counts, unit_phasor, unwrapped_error, wrap
-from .scenario import acquisition, effective_tracking, simulate
+from .scenario import acquisition, effective_tracking, scenario_epochs, simulate
 
 KINDS = ("wrapped", "unwrapped")
 
@@ -122,26 +122,103 @@ def s4_statistics(s4: np.ndarray, block: int, steady: slice) -> tuple[np.ndarray
     before the guard).  With them, the mean is over the estimable trial-epochs of each block (NaN where there
     is none) and the median over each trial's estimable epochs (NaN for a trial without any), computed without
     all-NaN warnings; the fraction (``s4_hat_estimable``) says how much of the data they rest on, so a
-    figure can say it (:func:`.guards.divergence_note`).
+    figure can say it (:func:`.guards.divergence_note`).  The batch-by-batch form is :class:`S4Statistics`.
     """
-    ok = np.isfinite(s4)
-    frac = block_mean(ok.mean(axis=0), block)
-    if ok.all():
-        return block_mean(s4.mean(axis=0), block), np.median(s4[:, steady], axis=1), frac
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = block_mean(np.where(ok, s4, 0.0).sum(axis=0), block) / block_mean(ok.sum(axis=0).astype(float), block)
-    sub = np.where(ok[:, steady], s4[:, steady], np.nan)
-    med = np.full(s4.shape[0], np.nan)
-    has = ok[:, steady].any(axis=1)
-    if has.any():
-        med[has] = np.nanmedian(sub[has], axis=1)
+    acc = S4Statistics()
+    med = acc.add(s4, steady)
+    mean, frac = acc.result(block)
     return mean, med, frac
+
+
+class RowSum:
+    """Sum over rows (trials) accumulated batch by batch, bit for bit ``rows.sum(axis=0)`` of all rows.
+
+    numpy reduces axis 0 of a C-ordered array by copying the first row and adding
+    the others one at a time, in order; so does this, across batches.
+    """
+
+    def __init__(self) -> None:
+        self.total: np.ndarray | None = None
+
+    def add(self, rows: np.ndarray) -> None:
+        rows = np.asarray(rows)
+        first = 0
+        if self.total is None:
+            self.total = rows[0].copy()
+            first = 1
+        for r in rows[first:]:
+            self.total += r
+
+
+class S4Statistics:
+    """:func:`s4_statistics` accumulated over batches of trials: the same bits as on all trials at once."""
+
+    def __init__(self) -> None:
+        self.sum, self.count = RowSum(), RowSum()
+        self.n = 0
+        self.all_ok = True
+
+    def add(self, s4: np.ndarray, steady: slice) -> np.ndarray:
+        """Add a batch (trials, epochs); returns its per-trial medians over ``steady``."""
+        ok = np.isfinite(s4)
+        self.n += s4.shape[0]
+        self.count.add(ok.astype(np.intp))
+        if ok.all():
+            self.sum.add(s4)
+            return np.median(s4[:, steady], axis=1)  # equals nanmedian on rows without NaN (bit for bit)
+        self.all_ok = False
+        self.sum.add(np.where(ok, s4, 0.0))
+        sub = np.where(ok[:, steady], s4[:, steady], np.nan)
+        med = np.full(s4.shape[0], np.nan)
+        has = ok[:, steady].any(axis=1)
+        if has.any():
+            med[has] = np.nanmedian(sub[has], axis=1)
+        return med
+
+    def result(self, block: int) -> tuple[np.ndarray, np.ndarray]:
+        """(mean over trials per time block, estimable fraction per time block)."""
+        frac = block_mean(self.count.total / self.n, block)
+        if self.all_ok:
+            return block_mean(self.sum.total / self.n, block), frac
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = block_mean(self.sum.total, block) / block_mean(self.count.total.astype(float), block)
+        return mean, frac
+
+
+class NanMean:
+    """``np.nanmean(rows, axis=0)`` over all batches of rows, bit for bit (NaN, without a warning, where no row has a value)."""
+
+    def __init__(self) -> None:
+        self.sum, self.count = RowSum(), RowSum()
+
+    def add(self, rows: np.ndarray) -> None:
+        nan = np.isnan(rows)
+        self.sum.add(np.where(nan, 0.0, rows))
+        self.count.add((~nan).astype(np.intp))
+
+    def result(self) -> np.ndarray:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.divide(self.sum.total, self.count.total)
+
+
+def trial_batches(n_trials: int, n_epochs: int, budget: int) -> list[tuple[int, int]]:
+    """Blocks ``[lo, hi)`` of trials simulated and tracked together: whole lane blocks (``blocks.LANES`` trials)
+    holding at most ``budget`` trial-epochs, at least one lane block."""
+    from ..trackers.blocks import LANES
+
+    rows = max(budget // max(n_epochs, 1) // LANES, 1) * LANES
+    return [(lo, min(lo + rows, n_trials)) for lo in range(0, n_trials, rows)]
 
 
 def window_std(a: np.ndarray, per: int) -> np.ndarray:
     """Standard deviation over consecutive windows of ``per`` samples along the last axis."""
     nw = a.shape[-1] // per
     return a[..., : nw * per].reshape(*a.shape[:-1], nw, per).std(axis=-1)
+
+
+#: trial-epochs a shard simulates and tracks at once (:func:`trial_batches`): a job's memory is bounded by this,
+#: not by its trials (issue 14; a 500-s 10-ms shard runs 100 trials as blocks of 32).  No result depends on it.
+BATCH_TRIAL_EPOCHS = 2_000_000
 
 
 def run_shard(
@@ -160,104 +237,139 @@ def run_shard(
     trace: tuple[np.ndarray, np.ndarray] | None = None,
     trace_set=None,
     progress: Callable[[str], object] | None = None,
+    batch_trial_epochs: int = BATCH_TRIAL_EPOCHS,
 ) -> xr.Dataset:
     """One shard; ``trace``/``trace_set``: a recorded scintillation and its fitted AR models (Sec. VI-E).
 
     ``progress``: where to write progress lines (filter-epochs done, rate, ETA;
     :class:`scintrack.progress.Progress`), e.g. the job log's ``info``.
+
+    The trials are simulated and tracked in batches of at most
+    ``batch_trial_epochs`` trial-epochs (:func:`trial_batches`), every tracker on
+    one batch before the next batch is simulated.  Every trial's signals and
+    estimates are the same in any batch (one seed stream per trial, trackers
+    that treat trials independently), per-trial statistics are computed row by
+    row and sums over trials are accumulated in numpy's order
+    (:class:`RowSum`), so the result is the same bits for any batching
+    (``tests/test_shard_batches.py``).
     """
     tracking = effective_tracking(scenario, tracking)
-    real = simulate(scenario_name, scenario, tracking, seed=seed, ts=ts, nspa=nspa, warmup_s=warmup_s, trials=trials, lut=lut, trace=trace)
-    init = acquisition(real, tracking)
-    n_epochs = real.y.shape[1]
+    trials = np.asarray(list(trials))
+    n_tr = trials.size
+    n_epochs = scenario_epochs(scenario, ts)
     block = max(int(round(float(tracking.get("stats_resolution_s", ts)) / ts)), 1)
     n_stat = n_epochs // block
     per_window = max(int(round(float(tracking.get("jitter_window_s", 60.0)) / ts)), 1)
     n_windows = n_epochs // per_window
-    total_phase = real.theta_d + real.theta_s
     steady = slice(int(round(float(tracking["steady_state_start_s"]) / ts)), None)
     if steady.start >= n_epochs:
         raise ValueError(f"scenario {scenario_name!r}: steady_state_start_s is beyond its duration")
     hyst = float(tracking["slip_hysteresis_rad"])
     settle = int(round(float(tracking["slip_settle_s"]) / ts))
     nt = len(tracker_names)
-    sq = np.zeros((nt, 2, n_stat))
-    sq2 = np.zeros_like(sq)
-    ms = np.zeros((nt, 2, real.trials.size))
-    slips = np.zeros((nt, real.trials.size), dtype=np.int64)
+    sq = [[RowSum() for _ in KINDS] for _ in range(nt)]
+    sq2 = [[RowSum() for _ in KINDS] for _ in range(nt)]
+    ms = np.zeros((nt, 2, n_tr))
+    slips = np.zeros((nt, n_tr), dtype=np.int64)
     events = np.zeros_like(slips)
     example = np.zeros((nt, n_stat))
-    s4_hat = np.full((nt, n_stat), np.nan)
-    s4_med = np.full((nt, real.trials.size), np.nan)
-    s4_ok = np.full((nt, n_stat), np.nan)
-    div_epoch = np.full((nt, real.trials.size), -1, dtype=np.int64)
-    div_reason = np.zeros((nt, real.trials.size), dtype=np.int8)
+    s4_acc: dict[int, S4Statistics] = {}
+    s4_med = np.full((nt, n_tr), np.nan)
+    div_epoch = np.full((nt, n_tr), -1, dtype=np.int64)
+    div_reason = np.zeros((nt, n_tr), dtype=np.int8)
     design = np.full((nt, 2), np.nan)  # the AR-grid point a fixed-design tracker was built with (NaN: adaptive / none)
-    jit_disc = np.full((nt, real.trials.size, n_windows), np.nan)
+    jit_disc = np.full((nt, n_tr, n_windows), np.nan)
     jit_track = np.full_like(jit_disc, np.nan)
     ex_disc = np.full((nt, n_stat), np.nan)
     ex_freq = np.full((nt, n_stat), np.nan)
-    monitors = {m: np.full((nt, n_stat), np.nan) for m in MONITORS}
-    ms_tot = np.zeros((nt, real.trials.size))
-    lock = np.zeros((nt, real.trials.size))
+    monitor_acc: dict[tuple[int, str], Any] = {}  # (tracker, monitor) -> NanMean, or all trials' values for T (a median)
+    ms_tot = np.zeros((nt, n_tr))
+    lock = np.zeros((nt, n_tr))
     lock_per = max(int(round(float(tracking.get("lock_window_s", 0.2)) / ts)), 1)
     lock_threshold = float(tracking.get("lock_threshold", 0.85))
-    slips_tot = np.zeros((nt, real.trials.size), dtype=np.int64)
+    slips_tot = np.zeros((nt, n_tr), dtype=np.int64)
     events_tot = np.zeros_like(slips_tot)
     context = TrackerContext(scenario=scenario, tracking=tracking, lut=lut, ts=ts, trace_set=trace_set)
-    prog = Progress(nt * real.trials.size * n_epochs, unit="filter-epochs", log=progress, label=f"{scenario_name} ({real.trials.size} trials)")
-    for j, name in enumerate(tracker_names):
-        tracker = registry.build(name, tracker_specs[name], context)
-        if hasattr(tracker, "ar_sets"):  # the AEKF-AR: its scintillation phase (and the adaptive S4) estimates
-            tracker.record = ("theta_s", "s4_hat") if getattr(tracker, "adaptive", False) else ("theta_s",)
-        tracker_init = init
-        if getattr(tracker, "noise_estimate", "") == "reference":
-            tracker_init = replace(init, noise_reference=real.noise_reference())
-        point = getattr(tracker, "design_point", None)
-        if point is not None:
-            design[j] = point
-        out = tracker.run(real.y, tracker_init)
-        div = guards.detect(out, ts)
-        div_epoch[j], div_reason[j] = div.epoch, div.reason
-        out = guards.sanitize(out, div, fallback=init.phase)
-        if "total_phase" in out.extras:
-            total_hat = out.extras["total_phase"]
-        elif "theta_s" in out.extras:
-            total_hat = out.theta_d + out.extras["theta_s"]
+    prog = Progress(nt * n_tr * n_epochs, unit="filter-epochs", log=progress, label=f"{scenario_name} ({n_tr} trials)")
+    first = None  # the first batch's truths: the example trial and the scenario's profile
+    for lo, hi in trial_batches(n_tr, n_epochs, batch_trial_epochs):
+        real = simulate(scenario_name, scenario, tracking, seed=seed, ts=ts, nspa=nspa, warmup_s=warmup_s, trials=trials[lo:hi], lut=lut, trace=trace)
+        init = acquisition(real, tracking)
+        total_phase = real.theta_d + real.theta_s
+        if first is None:
+            first = {"s4_t": real.s4_t, "tau0_t": real.tau0_t, "time": real.time, "total_phase": total_phase[0].copy()}
+        rows = slice(lo, hi)
+        for j, name in enumerate(tracker_names):
+            tracker = registry.build(name, tracker_specs[name], context)
+            if hasattr(tracker, "ar_sets"):  # the AEKF-AR: its scintillation phase (and the adaptive S4) estimates
+                tracker.record = ("theta_s", "s4_hat") if getattr(tracker, "adaptive", False) else ("theta_s",)
+            tracker_init = init
+            if getattr(tracker, "noise_estimate", "") == "reference":
+                tracker_init = replace(init, noise_reference=real.noise_reference())
+            point = getattr(tracker, "design_point", None)
+            if point is not None:
+                design[j] = point
+            out = tracker.run(real.y, tracker_init)
+            div = guards.detect(out, ts)
+            div_epoch[j, rows], div_reason[j, rows] = div.epoch, div.reason
+            out = guards.sanitize(out, div, fallback=init.phase)
+            if "total_phase" in out.extras:
+                total_hat = out.extras["total_phase"]
+            elif "theta_s" in out.extras:
+                total_hat = out.theta_d + out.extras["theta_s"]
+            else:
+                total_hat = out.theta_d
+            lock[j, rows] = time_in_lock(real.y, total_hat, lock_per, lock_threshold, steady.start)
+            et = unwrapped_error(total_hat, total_phase)
+            ms_tot[j, rows] = (wrap(et[:, steady]) ** 2).mean(axis=1)
+            slips_tot[j, rows], events_tot[j, rows] = slip_counts(et, hyst, settle)
+            del et, total_hat
+            eu = unwrapped_error(out.theta_d, real.theta_d)
+            for kk, e in enumerate((wrap(eu), eu)):
+                e2 = e**2
+                ms[j, kk, rows] = e2[:, steady].mean(axis=1)
+                e2 = block_mean(e2, block)
+                sq[j][kk].add(e2)
+                sq2[j][kk].add(e2**2)
+            slips[j, rows], events[j, rows] = slip_counts(eu, hyst, settle)
+            if lo == 0:
+                example[j] = block_mean(eu[0], block)
+            if "s4_hat" in out.extras:
+                s4_med[j, rows] = s4_acc.setdefault(j, S4Statistics()).add(out.extras["s4_hat"], steady)
+            if "discriminator" in out.extras:
+                disc = out.extras["discriminator"]
+                jit_disc[j, rows] = window_std(disc, per_window)
+                jit_track[j, rows] = window_std(wrap(out.theta_d - total_phase), per_window)
+                if lo == 0:
+                    ex_disc[j] = block_mean(disc[0], block)
+            if "frequency_hz" in out.extras and lo == 0:
+                ex_freq[j] = block_mean(out.extras["frequency_hz"][0], block)
+            for m in MONITORS:
+                if m in out.extras:
+                    if m == "T":  # a median over trials: every trial's values are kept
+                        monitor_acc.setdefault((j, m), np.empty((n_tr, n_epochs)))[rows] = out.extras[m]
+                    else:
+                        monitor_acc.setdefault((j, m), NanMean()).add(out.extras[m])
+            # drop every full-length array of this tracker before the next one runs (a shard's peak memory is
+            # then one tracker's outputs and temporaries, not those plus the last loop values of the previous one)
+            out = eu = e = e2 = disc = None
+            prog.add((hi - lo) * n_epochs, note=f"{name} done (trials {trials[lo]}..{trials[hi - 1]})")
+        real = init = total_phase = None
+    s4_hat = np.full((nt, n_stat), np.nan)
+    s4_ok = np.full((nt, n_stat), np.nan)
+    for j, acc in s4_acc.items():
+        s4_hat[j], s4_ok[j] = acc.result(block)
+    monitors = {m: np.full((nt, n_stat), np.nan) for m in MONITORS}
+    for (j, m), acc in monitor_acc.items():
+        if m == "T":
+            with warnings.catch_warnings():  # all-NaN epochs (before the SAKF's first window) give NaN, silently
+                warnings.simplefilter("ignore", RuntimeWarning)
+                stat = np.nanmedian(acc, axis=0)
         else:
-            total_hat = out.theta_d
-        lock[j] = time_in_lock(real.y, total_hat, lock_per, lock_threshold, steady.start)
-        et = unwrapped_error(total_hat, total_phase)
-        ms_tot[j] = (wrap(et[:, steady]) ** 2).mean(axis=1)
-        slips_tot[j], events_tot[j] = slip_counts(et, hyst, settle)
-        del et, total_hat
-        eu = unwrapped_error(out.theta_d, real.theta_d)
-        for kk, e in enumerate((wrap(eu), eu)):
-            e2 = e**2
-            ms[j, kk] = e2[:, steady].mean(axis=1)
-            e2 = block_mean(e2, block)
-            sq[j, kk] = e2.sum(axis=0)
-            sq2[j, kk] = (e2**2).sum(axis=0)
-        slips[j], events[j] = slip_counts(eu, hyst, settle)
-        example[j] = block_mean(eu[0], block)
-        if "s4_hat" in out.extras:
-            s4_hat[j], s4_med[j], s4_ok[j] = s4_statistics(out.extras["s4_hat"], block, steady)
-        if "discriminator" in out.extras:
-            disc = out.extras["discriminator"]
-            jit_disc[j] = window_std(disc, per_window)
-            jit_track[j] = window_std(wrap(out.theta_d - total_phase), per_window)
-            ex_disc[j] = block_mean(disc[0], block)
-        if "frequency_hz" in out.extras:
-            ex_freq[j] = block_mean(out.extras["frequency_hz"][0], block)
-        for m in MONITORS:
-            if m in out.extras:
-                v = out.extras[m]
-                with warnings.catch_warnings():  # all-NaN epochs (before the SAKF's first window) give NaN, silently
-                    warnings.simplefilter("ignore", RuntimeWarning)
-                    stat = np.nanmedian(v, axis=0) if m == "T" else np.nanmean(v, axis=0)
-                monitors[m][j] = block_mean(stat, block)
-        del out, eu
-        prog.add(real.trials.size * n_epochs, note=f"{name} done")
+            stat = acc.result()
+        monitors[m][j] = block_mean(stat, block)
+    sq = np.array([[acc.total for acc in row] for row in sq])
+    sq2 = np.array([[acc.total for acc in row] for row in sq2])
     ds = xr.Dataset(
         {
             "sq_sum": (("tracker", "kind", "time"), sq, {"long_name": "sum over trials of the squared phase error", "units": "rad2"}),
@@ -266,13 +378,13 @@ def run_shard(
             "slips": (("tracker", "trial"), slips, {"long_name": "cycles slipped per trial", "units": "1"}),
             "slip_events": (("tracker", "trial"), events, {"long_name": "slip events per trial", "units": "1"}),
             "example_error": (("tracker", "time"), example, {"long_name": "unwrapped phase error of the first trial of the shard", "units": "rad"}),
-            "example_trial": ((), int(real.trials[0])),
+            "example_trial": ((), int(trials[0])),
             "ms_total_steady": (("tracker", "trial"), ms_tot, {"long_name": "per-trial mean square of the wrapped total-phase error over the steady-state window", "units": "rad2"}),
             "slips_total": (("tracker", "trial"), slips_tot, {"long_name": "cycles slipped by the total-phase error per trial", "units": "1"}),
             "slip_events_total": (("tracker", "trial"), events_tot, {"long_name": "slip events of the total-phase error per trial", "units": "1"}),
             "time_in_lock": (("tracker", "trial"), lock, {"long_name": "fraction of lock-detector blocks in lock over the steady-state window", "units": "1"}),
-            "s4_true": (("time",), block_mean(real.s4_t, block), {"long_name": "S4 of the CSM profile", "units": "1"}),
-            "tau0_true": (("time",), block_mean(real.tau0_t, block), {"long_name": "tau0 of the CSM profile", "units": "s"}),
+            "s4_true": (("time",), block_mean(first["s4_t"], block), {"long_name": "S4 of the CSM profile", "units": "1"}),
+            "tau0_true": (("time",), block_mean(first["tau0_t"], block), {"long_name": "tau0 of the CSM profile", "units": "s"}),
             "s4_hat_mean": (("tracker", "time"), s4_hat, {"long_name": "mean over trials of the on-line S4 estimate (adaptive trackers)", "units": "1"}),
             "s4_hat_median": (("tracker", "trial"), s4_med, {"long_name": "per-trial median of the on-line S4 estimate over the steady-state window", "units": "1"}),
             "s4_hat_estimable": (("tracker", "time"), s4_ok, {"long_name": "fraction of the trial-epochs of each time block with an estimable on-line S4", "units": "1"}),
@@ -281,17 +393,18 @@ def run_shard(
             "divergence_reason": (("tracker", "trial"), div_reason, dict(guards.REASON_ATTRS)),
             "design_s4": (("tracker",), design[:, 0], {"long_name": "S4 of the AR-grid point the tracker was designed for (NaN: adaptive or none)", "units": "1"}),
             "design_tau0": (("tracker",), design[:, 1], {"long_name": "tau0 of the AR-grid point the tracker was designed for (NaN: adaptive or none)", "units": "s"}),
-            "n_trials": ((), int(real.trials.size)),
+            "n_trials": ((), int(n_tr)),
         },
         coords={
             "tracker": list(tracker_names),
             "kind": list(KINDS),
-            "trial": real.trials,
-            "time": ("time", block_mean(real.time, block), {"units": "s", "long_name": "time"}),
+            "trial": trials,
+            "time": ("time", block_mean(first["time"], block), {"units": "s", "long_name": "time"}),
         },
     )
     if any(np.isfinite(jit_disc).any(axis=(1, 2))) or any(np.isfinite(ex_freq).any(axis=1)):
-        truth_freq = np.diff(total_phase[0], append=2 * total_phase[0, -1] - total_phase[0, -2]) / (2 * np.pi * ts)
+        tp0 = first["total_phase"]
+        truth_freq = np.diff(tp0, append=2 * tp0[-1] - tp0[-2]) / (2 * np.pi * ts)
         ds["jitter_discriminator"] = (("tracker", "trial", "window"), jit_disc,
                                       {"long_name": "std of the discriminator output over each window (Susi's phase jitter)", "units": "rad"})
         ds["jitter_tracking"] = (("tracker", "trial", "window"), jit_track,

@@ -132,6 +132,11 @@ def clock_phase(seed: int, name: str, trials: np.ndarray, n_epochs: int, ts: flo
     return out
 
 
+def scenario_epochs(scenario: Mapping[str, Any], ts: float) -> int:
+    """Epochs of a scenario at ``ts`` (what :func:`simulate` generates)."""
+    return int(round(float(scenario["duration_s"]) / ts))
+
+
 def acquisition(real: Realisation, tracking: Mapping[str, Any], static: bool = False):
     """Initial values every tracker gets: phase of the first prompt, nominal Doppler, zero rate.
 
@@ -153,7 +158,7 @@ def simulate(
     name: str, scenario: Mapping[str, Any], tracking: Mapping[str, Any], *, seed: int, ts: float, nspa: int, warmup_s: float,
     trials: Sequence[int], lut=None, trace: tuple[np.ndarray, np.ndarray] | None = None, dynamics: bool = True,
 ) -> Realisation:
-    n_epochs = int(round(float(scenario["duration_s"]) / ts))
+    n_epochs = scenario_epochs(scenario, ts)
     trials = np.asarray(list(trials))
     name = str(scenario.get("realisations_of", name))  # the seed streams (another scenario's realisations)
     amp = float(tracking["amplitude"])

@@ -101,14 +101,18 @@ class Event:
     spectral_index: float
 
 
-def propagate_event(unit_screen: np.ndarray, env: np.ndarray, strength_rad: float, dx: float, bands: Sequence[str], geometry: ScreenGeometry, margin: int) -> Event:
-    """Field at every band for one screen realisation; ``margin`` samples are dropped at both ends."""
-    rho, theta = {}, {}
+def band_field(unit_screen: np.ndarray, env: np.ndarray, strength_rad: float, dx: float, band: str, geometry: ScreenGeometry, margin: int) -> np.ndarray:
+    """Complex field on the ground at ``band`` for one screen realisation; ``margin`` samples are dropped at both ends."""
     phi_l1 = strength_rad * env * unit_screen
-    keep = slice(margin, unit_screen.size - margin)
+    f = GPS_CARRIERS_HZ[band]
+    return fresnel_propagate(phi_l1 * GPS_CARRIERS_HZ["L1"] / f, dx, f, geometry.height_m)[margin : unit_screen.size - margin]
+
+
+def propagate_event(unit_screen: np.ndarray, env: np.ndarray, strength_rad: float, dx: float, bands: Sequence[str], geometry: ScreenGeometry, margin: int) -> Event:
+    """Amplitude and unwrapped phase at every band (:func:`band_field`) for one screen realisation."""
+    rho, theta = {}, {}
     for band in bands:
-        f = GPS_CARRIERS_HZ[band]
-        u = fresnel_propagate(phi_l1 * GPS_CARRIERS_HZ["L1"] / f, dx, f, geometry.height_m)[keep]
+        u = band_field(unit_screen, env, strength_rad, dx, band, geometry, margin)
         rho[band] = np.abs(u)
         th = np.unwrap(np.angle(u))
         theta[band] = th - th[0]
@@ -165,9 +169,9 @@ def calibrate(
     for index in index_grid:
         unit = shaped_screen(white, n, dx, float(index), geometry.outer_scale_m)
 
-        def s4_of(log_strength: float, unit=unit) -> float:
-            ev = propagate_event(unit, env, float(np.exp(log_strength)), dx, ["L1"], geometry, margin)
-            return float(window_s4(ev.rho["L1"] ** 2, per).mean())
+        def s4_of(log_strength: float, unit=unit) -> float:  # the amplitude only: no phase unwrapping in the search
+            u = band_field(unit, env, float(np.exp(log_strength)), dx, "L1", geometry, margin)
+            return float(window_s4(np.abs(u) ** 2, per).mean())
 
         try:
             strength = float(np.exp(_bisect(s4_of, np.log(0.01), np.log(200.0), s4_target, iters, "S4 at L1")))

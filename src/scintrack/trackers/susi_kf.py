@@ -437,7 +437,7 @@ class SusiKF:
         series = {"discriminator": innov, "frequency_hz": freq, "R": r_out}
         scint_names = ("phi3", "T", "p", "weight")
         if self.scintillation:
-            series.update({name: np.full((n_tr, k), np.nan) for name in scint_names})
+            series.update({name: np.empty((n_tr, k)) for name in scint_names})  # every chunk of the schedule writes its epochs
         sc = self._initial_scint(n_tr)
         for i0, i1 in self._schedule(k):
             susi_kernel(y, i0, i1, prm, st, sc["s_phi"], sc["s_f"], sc["weight"], out, innov, freq, r_out, cov_fail)
@@ -471,7 +471,7 @@ class SusiKF:
         series = {"discriminator": innov, "frequency_hz": freq, "R": r_out}
         scint_names = ("phi3", "T", "p", "weight")
         if self.scintillation:
-            series.update({name: np.full((n_tr, k), np.nan) for name in scint_names})
+            series.update({name: np.empty((n_tr, k)) for name in scint_names})  # every chunk of the schedule writes its epochs
         sc = self._initial_scint(n_tr)
         ts = self.ts
         for i0, i1 in self._schedule(k):
