@@ -16,7 +16,8 @@ from conftest import REPO
 from test_stress_sweep import _lut
 
 from scintrack.config import load_config
-from scintrack.experiments.runner import RowSum, S4Statistics, run_shard, s4_statistics, trial_batches
+from scintrack.experiments.batching import trial_batches, trials_held
+from scintrack.experiments.runner import RowSum, S4Statistics, run_shard, s4_statistics
 
 TRACKERS = ["pll", "kf", "akf", "akf_ar", "aekf_ar", "aekf_ar_fold", "susi_pll", "susi_akf", "susi_sakf", "zhao_mm"]
 
@@ -63,6 +64,10 @@ def test_trial_batches_are_whole_lane_blocks_within_the_budget():
     assert trial_batches(25, 300_000, 2_000_000) == [(0, 25)]  # never below one lane block
     assert trial_batches(100, 6_000, 2_000_000) == [(0, 100)]
     assert trial_batches(1000, 6_000, 2_000_000) == [(0, 320), (320, 640), (640, 960), (960, 1000)]
+    for n, k in [(100, 50_000), (25, 300_000), (1000, 6_000), (7, 10)]:  # what the resource model holds is the largest batch
+        assert trials_held(n, k) == max(hi - lo for lo, hi in trial_batches(n, k))
+    from scintrack.trackers import blocks, lanes
+    assert blocks.LANES is lanes.LANES == 32
 
 
 def test_row_sum_is_numpys_axis0_sum_bit_for_bit():

@@ -87,6 +87,7 @@ from ..trackers import registry
 from ..trackers.base import TrackerContext
 from . import guards
 from .merge import MONITORS, merge  # noqa: F401  (merge: re-exported; it lives in .merge, light to import)
+from .batching import BATCH_TRIAL_EPOCHS, METRIC_ROWS, trial_batches
 from .metrics import slip_counts, unit_phasor, unwrapped_error, wrap
 from .scenario import acquisition, effective_tracking, scenario_epochs, simulate
 
@@ -201,24 +202,10 @@ class NanMean:
             return np.divide(self.sum.total, self.count.total)
 
 
-def trial_batches(n_trials: int, n_epochs: int, budget: int) -> list[tuple[int, int]]:
-    """Blocks ``[lo, hi)`` of trials simulated and tracked together: whole lane blocks (``blocks.LANES`` trials)
-    holding at most ``budget`` trial-epochs, at least one lane block."""
-    from ..trackers.blocks import LANES
-
-    rows = max(budget // max(n_epochs, 1) // LANES, 1) * LANES
-    return [(lo, min(lo + rows, n_trials)) for lo in range(0, n_trials, rows)]
-
-
 def window_std(a: np.ndarray, per: int) -> np.ndarray:
     """Standard deviation over consecutive windows of ``per`` samples along the last axis."""
     nw = a.shape[-1] // per
     return a[..., : nw * per].reshape(*a.shape[:-1], nw, per).std(axis=-1)
-
-
-#: trial-epochs a shard simulates and tracks at once (:func:`trial_batches`): a job's memory is bounded by this,
-#: not by its trials (issue 14; a 500-s 10-ms shard runs 100 trials as blocks of 32).  No result depends on it.
-BATCH_TRIAL_EPOCHS = 2_000_000
 
 
 def run_shard(
@@ -313,46 +300,54 @@ def run_shard(
             div = guards.detect(out, ts)
             div_epoch[j, rows], div_reason[j, rows] = div.epoch, div.reason
             out = guards.sanitize(out, div, fallback=init.phase)
-            if "total_phase" in out.extras:
-                total_hat = out.extras["total_phase"]
-            elif "theta_s" in out.extras:
-                total_hat = out.theta_d + out.extras["theta_s"]
-            else:
-                total_hat = out.theta_d
-            lock[j, rows] = time_in_lock(real.y, total_hat, lock_per, lock_threshold, steady.start)
-            et = unwrapped_error(total_hat, total_phase)
-            ms_tot[j, rows] = (wrap(et[:, steady]) ** 2).mean(axis=1)
-            slips_tot[j, rows], events_tot[j, rows] = slip_counts(et, hyst, settle)
-            del et, total_hat
-            eu = unwrapped_error(out.theta_d, real.theta_d)
-            for kk, e in enumerate((wrap(eu), eu)):
-                e2 = e**2
-                ms[j, kk, rows] = e2[:, steady].mean(axis=1)
-                e2 = block_mean(e2, block)
-                sq[j][kk].add(e2)
-                sq2[j][kk].add(e2**2)
-            slips[j, rows], events[j, rows] = slip_counts(eu, hyst, settle)
-            if lo == 0:
-                example[j] = block_mean(eu[0], block)
-            if "s4_hat" in out.extras:
-                s4_med[j, rows] = s4_acc.setdefault(j, S4Statistics()).add(out.extras["s4_hat"], steady)
-            if "discriminator" in out.extras:
-                disc = out.extras["discriminator"]
-                jit_disc[j, rows] = window_std(disc, per_window)
-                jit_track[j, rows] = window_std(wrap(out.theta_d - total_phase), per_window)
-                if lo == 0:
-                    ex_disc[j] = block_mean(disc[0], block)
-            if "frequency_hz" in out.extras and lo == 0:
-                ex_freq[j] = block_mean(out.extras["frequency_hz"][0], block)
-            for m in MONITORS:
-                if m in out.extras:
-                    if m == "T":  # a median over trials: every trial's values are kept
-                        monitor_acc.setdefault((j, m), np.empty((n_tr, n_epochs)))[rows] = out.extras[m]
-                    else:
-                        monitor_acc.setdefault((j, m), NanMean()).add(out.extras[m])
-            # drop every full-length array of this tracker before the next one runs (a shard's peak memory is
-            # then one tracker's outputs and temporaries, not those plus the last loop values of the previous one)
-            out = eu = e = e2 = disc = None
+            for r0 in range(0, hi - lo, METRIC_ROWS):  # the metrics a few trials at a time: small temporaries
+                c = slice(r0, min(r0 + METRIC_ROWS, hi - lo))  # rows of the batch
+                g = slice(lo + c.start, lo + c.stop)  # rows of the shard
+                if "total_phase" in out.extras:
+                    total_hat = out.extras["total_phase"][c]
+                elif "theta_s" in out.extras:
+                    total_hat = out.theta_d[c] + out.extras["theta_s"][c]
+                else:
+                    total_hat = out.theta_d[c]
+                lock[j, g] = time_in_lock(real.y[c], total_hat, lock_per, lock_threshold, steady.start)
+                et = unwrapped_error(total_hat, total_phase[c])
+                ms_tot[j, g] = (wrap(et[:, steady]) ** 2).mean(axis=1)
+                slips_tot[j, g], events_tot[j, g] = slip_counts(et, hyst, settle)
+                del et, total_hat
+                eu = unwrapped_error(out.theta_d[c], real.theta_d[c])
+                for kk, e in enumerate((wrap(eu), eu)):
+                    e2 = e**2
+                    ms[j, kk, g] = e2[:, steady].mean(axis=1)
+                    e2 = block_mean(e2, block)
+                    sq[j][kk].add(e2)
+                    sq2[j][kk].add(e2**2)
+                slips[j, g], events[j, g] = slip_counts(eu, hyst, settle)
+                if g.start == 0:
+                    example[j] = block_mean(eu[0], block)
+                if "s4_hat" in out.extras:
+                    s4_med[j, g] = s4_acc.setdefault(j, S4Statistics()).add(out.extras["s4_hat"][c], steady)
+                if "discriminator" in out.extras:
+                    disc = out.extras["discriminator"][c]
+                    jit_disc[j, g] = window_std(disc, per_window)
+                    jit_track[j, g] = window_std(wrap(out.theta_d[c] - total_phase[c]), per_window)
+                    if g.start == 0:
+                        ex_disc[j] = block_mean(disc[0], block)
+                if "frequency_hz" in out.extras and g.start == 0:
+                    ex_freq[j] = block_mean(out.extras["frequency_hz"][0], block)
+                for m in MONITORS:
+                    if m in out.extras and m != "T":
+                        monitor_acc.setdefault((j, m), NanMean()).add(out.extras[m][c])
+                eu = e = e2 = disc = None
+            if "T" in out.extras:  # a median over trials: every trial's values are needed (the shard's own array if one batch)
+                t_all = out.extras["T"] if (lo, hi) == (0, n_tr) else monitor_acc.setdefault((j, "T"), np.empty((n_tr, n_epochs)))
+                if t_all is not out.extras["T"]:
+                    t_all[lo:hi] = out.extras["T"]
+                if hi == n_tr:
+                    with warnings.catch_warnings():  # all-NaN epochs (before the SAKF's first window) give NaN, silently
+                        warnings.simplefilter("ignore", RuntimeWarning)
+                        monitor_acc[(j, "T")] = np.nanmedian(t_all, axis=0)
+                t_all = None
+            out = None  # the next tracker runs without this one's arrays
             prog.add((hi - lo) * n_epochs, note=f"{name} done (trials {trials[lo]}..{trials[hi - 1]})")
         real = init = total_phase = None
     s4_hat = np.full((nt, n_stat), np.nan)
@@ -361,13 +356,7 @@ def run_shard(
         s4_hat[j], s4_ok[j] = acc.result(block)
     monitors = {m: np.full((nt, n_stat), np.nan) for m in MONITORS}
     for (j, m), acc in monitor_acc.items():
-        if m == "T":
-            with warnings.catch_warnings():  # all-NaN epochs (before the SAKF's first window) give NaN, silently
-                warnings.simplefilter("ignore", RuntimeWarning)
-                stat = np.nanmedian(acc, axis=0)
-        else:
-            stat = acc.result()
-        monitors[m][j] = block_mean(stat, block)
+        monitors[m][j] = block_mean(acc if m == "T" else acc.result(), block)  # T: its median over trials (above)
     sq = np.array([[acc.total for acc in row] for row in sq])
     sq2 = np.array([[acc.total for acc in row] for row in sq2])
     ds = xr.Dataset(

@@ -72,11 +72,14 @@ MEASURED: dict[str, tuple[float, float]] = {
 
 # Tracking shards (rule tracking_shard), fitted to the 105 shards of the full
 # run and the smoke run: peak memory = SHARD_BASE_MB + SHARD_KB_PER_TRIAL_EPOCH
-# x trials x epochs (the simulated signals of all trials are held at once; the
-# CSM and AR worlds also hold the nspa sub-samples), wall = SHARD_START_S +
-# SHARD_US_PER_FILTER_EPOCH x trials x epochs x trackers.  Largest measured:
-# cycle_slips (100 trials x 50000 epochs, 5 trackers) 2102 MB and 23 s;
-# susi_alpha (25 trials x 300000 epochs at 1 ms, 6 trackers) 1473 MB and 58 s.
+# x trials held x epochs (the simulated signals of the trials a shard holds at
+# once, scintrack.experiments.batching.trials_held; the CSM and AR worlds also
+# hold the nspa sub-samples), wall = SHARD_START_S + SHARD_US_PER_FILTER_EPOCH x
+# trials x epochs x trackers.  Largest measured before the batching: cycle_slips
+# (100 trials x 50000 epochs, 5 trackers) 2102 MB and 23 s; susi_alpha (25
+# trials x 300000 epochs at 1 ms, 6 trackers) 1473 MB and 58 s.  With it
+# (2026-12-03, full run): cycle_slips 602-657 MB (32 trials held), susi_alpha
+# 1392 MB; the model's 990 and 1850 MB stay above both.
 SHARD_BASE_MB = 350.0
 SHARD_KB_PER_TRIAL_EPOCH = {"csm": 0.4, "ar": 0.4, "trace": 0.2}
 SHARD_START_S = 10.0
@@ -122,10 +125,12 @@ def shard_size(config: Mapping[str, Any], experiment: str, scenario: str, shard:
 
 
 def shard_mem_mb(config: Mapping[str, Any], experiment: str, scenario: str, shard: int) -> int:
-    """Declared memory of one tracking shard: its modelled peak x MEM_MARGIN."""
+    """Declared memory of one tracking shard: its modelled peak x MEM_MARGIN (the same for 10x the trials: batches)."""
+    from ..experiments.batching import trials_held
+
     trials, epochs, _, model = shard_size(config, experiment, scenario, shard)
     kb = SHARD_KB_PER_TRIAL_EPOCH.get(model, max(SHARD_KB_PER_TRIAL_EPOCH.values()))
-    return mem_mb_for(SHARD_BASE_MB + kb * trials * epochs / 1000.0)
+    return mem_mb_for(SHARD_BASE_MB + kb * trials_held(trials, epochs) * epochs / 1000.0)
 
 
 def shard_runtime(config: Mapping[str, Any], experiment: str, scenario: str, shard: int) -> int:

@@ -74,6 +74,7 @@ from numba import njit, types, vectorize
 from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic, models, overload, register_model
+from .lanes import LANES
 
 _F8_2 = ["float64(float64, float64)"]
 _F8_3 = ["float64(float64, float64, float64)"]
@@ -452,7 +453,7 @@ def weighted_scalar_update(x, P, PH, H, R, nu, w):
 # AEKF-AR ran 11, 16, 20 and 20 M filter-epochs/s with 8, 16, 32 and 64 (the
 # per-vector overheads amortise up to 32; 64 only adds padding and cache).
 
-LANES = 32
+# LANES (32) is defined in .lanes, apart from numba: light code sizes its batches by it
 
 
 class Lanes(types.Type):
