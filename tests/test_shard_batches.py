@@ -4,8 +4,7 @@
 ``batch_trial_epochs`` trial-epochs at once.  Every variable of the result (per-trial statistics, sums over
 trials, the on-line S4 statistics with not-estimable epochs, the SAKF monitors and their median, the examples of
 the first trial) must not depend on the batching: compared here as raw bytes, for every tracker type, on a
-two-segment CSM profile and on the AR world, with 40 trials as batches of 32 + 8 and of 32 + 8 with a smaller
-lane count than one block would need.
+two-segment CSM profile and on the AR world, with 40 trials as one batch and as batches of 32 + 8.
 """
 
 from __future__ import annotations

@@ -26,12 +26,17 @@ BATCH_TRIAL_EPOCHS = 2_000_000
 METRIC_ROWS = 8
 
 
+def batch_rows(n_epochs: int, budget: int = BATCH_TRIAL_EPOCHS) -> int:
+    """Trials per batch: whole lane blocks holding at most ``budget`` trial-epochs, at least one lane block."""
+    return max(budget // max(n_epochs, 1) // LANES, 1) * LANES
+
+
 def trial_batches(n_trials: int, n_epochs: int, budget: int = BATCH_TRIAL_EPOCHS) -> list[tuple[int, int]]:
-    """Blocks ``[lo, hi)`` of ``n_trials`` trials: whole lane blocks holding at most ``budget`` trial-epochs, at least one lane block."""
-    rows = max(budget // max(n_epochs, 1) // LANES, 1) * LANES
+    """Blocks ``[lo, hi)`` of ``n_trials`` trials, :func:`batch_rows` trials each (the last one the rest)."""
+    rows = batch_rows(n_epochs, budget)
     return [(lo, min(lo + rows, n_trials)) for lo in range(0, n_trials, rows)]
 
 
 def trials_held(n_trials: int, n_epochs: int, budget: int = BATCH_TRIAL_EPOCHS) -> int:
     """The most trials a shard of ``n_trials`` x ``n_epochs`` holds at once."""
-    return min(n_trials, max(budget // max(n_epochs, 1) // LANES, 1) * LANES)
+    return min(n_trials, batch_rows(n_epochs, budget))

@@ -86,8 +86,8 @@ from ..progress import Progress
 from ..trackers import registry
 from ..trackers.base import TrackerContext
 from . import guards
-from .merge import MONITORS, merge  # noqa: F401  (merge: re-exported; it lives in .merge, light to import)
 from .batching import BATCH_TRIAL_EPOCHS, METRIC_ROWS, trial_batches
+from .merge import MONITORS, merge  # noqa: F401  (merge: re-exported; it lives in .merge, light to import)
 from .metrics import slip_counts, unit_phasor, unwrapped_error, wrap
 from .scenario import acquisition, effective_tracking, scenario_epochs, simulate
 
@@ -186,6 +186,39 @@ class S4Statistics:
         return mean, frac
 
 
+class TrialMedian:
+    """``np.nanmedian(values, axis=0)`` over all ``n`` trials, fed batch by batch.
+
+    The median is taken once the last trial is in, and the trials' values are
+    dropped then; a single batch holding every trial is used as it is (no copy).
+    All-NaN epochs (the SAKF's monitors before their first window) give NaN
+    without a warning.
+    """
+
+    def __init__(self, n: int) -> None:
+        self.n, self.filled = n, 0
+        self.values: np.ndarray | None = None
+        self.median: np.ndarray | None = None
+
+    def add(self, rows: np.ndarray) -> None:
+        if self.filled == 0 and rows.shape[0] == self.n:
+            values = rows
+        else:
+            if self.values is None:
+                self.values = np.empty((self.n, rows.shape[1]))
+            self.values[self.filled : self.filled + rows.shape[0]] = rows
+            values = self.values
+        self.filled += rows.shape[0]
+        if self.filled == self.n:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                self.median = np.nanmedian(values, axis=0)
+            self.values = None
+
+    def result(self) -> np.ndarray:
+        return self.median
+
+
 class NanMean:
     """``np.nanmean(rows, axis=0)`` over all batches of rows, bit for bit (NaN, without a warning, where no row has a value)."""
 
@@ -269,7 +302,7 @@ def run_shard(
     jit_track = np.full_like(jit_disc, np.nan)
     ex_disc = np.full((nt, n_stat), np.nan)
     ex_freq = np.full((nt, n_stat), np.nan)
-    monitor_acc: dict[tuple[int, str], Any] = {}  # (tracker, monitor) -> NanMean, or all trials' values for T (a median)
+    monitor_acc: dict[tuple[int, str], NanMean | TrialMedian] = {}  # (tracker, monitor): T is a median over trials, the others means
     ms_tot = np.zeros((nt, n_tr))
     lock = np.zeros((nt, n_tr))
     lock_per = max(int(round(float(tracking.get("lock_window_s", 0.2)) / ts)), 1)
@@ -338,15 +371,8 @@ def run_shard(
                     if m in out.extras and m != "T":
                         monitor_acc.setdefault((j, m), NanMean()).add(out.extras[m][c])
                 eu = e = e2 = disc = None
-            if "T" in out.extras:  # a median over trials: every trial's values are needed (the shard's own array if one batch)
-                t_all = out.extras["T"] if (lo, hi) == (0, n_tr) else monitor_acc.setdefault((j, "T"), np.empty((n_tr, n_epochs)))
-                if t_all is not out.extras["T"]:
-                    t_all[lo:hi] = out.extras["T"]
-                if hi == n_tr:
-                    with warnings.catch_warnings():  # all-NaN epochs (before the SAKF's first window) give NaN, silently
-                        warnings.simplefilter("ignore", RuntimeWarning)
-                        monitor_acc[(j, "T")] = np.nanmedian(t_all, axis=0)
-                t_all = None
+            if "T" in out.extras:  # a median over trials: fed a whole batch at a time
+                monitor_acc.setdefault((j, "T"), TrialMedian(n_tr)).add(out.extras["T"])
             out = None  # the next tracker runs without this one's arrays
             prog.add((hi - lo) * n_epochs, note=f"{name} done (trials {trials[lo]}..{trials[hi - 1]})")
         real = init = total_phase = None
@@ -356,7 +382,7 @@ def run_shard(
         s4_hat[j], s4_ok[j] = acc.result(block)
     monitors = {m: np.full((nt, n_stat), np.nan) for m in MONITORS}
     for (j, m), acc in monitor_acc.items():
-        monitors[m][j] = block_mean(acc if m == "T" else acc.result(), block)  # T: its median over trials (above)
+        monitors[m][j] = block_mean(acc.result(), block)
     sq = np.array([[acc.total for acc in row] for row in sq])
     sq2 = np.array([[acc.total for acc in row] for row in sq2])
     ds = xr.Dataset(

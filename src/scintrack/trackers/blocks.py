@@ -74,6 +74,7 @@ from numba import njit, types, vectorize
 from numba.core import cgutils
 from numba.core.errors import TypingError
 from numba.extending import intrinsic, models, overload, register_model
+
 from .lanes import LANES
 
 _F8_2 = ["float64(float64, float64)"]
