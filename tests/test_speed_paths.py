@@ -22,20 +22,110 @@ from conftest import REPO as ROOT
 from scintrack import codeversion
 from scintrack.estimators import power_law
 from scintrack.progress import Progress
-from scintrack.signals import csm
+from scintrack.signals import csm, row_blocks
 
 
 def test_csm_streamed_in_row_blocks_is_bit_identical(monkeypatch):
     kw = dict(seed=3, name="chunks", trials=list(range(5)), n_epochs=700, ts=0.01, s4=0.7, tau0=0.3, nspa=8, warmup=50)
     whole = csm.generate_csm(**kw).z
-    monkeypatch.setattr(csm, "CHUNK_BYTES", 16 * 8 * 750 * 2)  # two rows per block
-    assert len(csm.trial_chunks(5, 750 * 8, csm.CHUNK_BYTES)) == 3
+    monkeypatch.setattr(row_blocks, "CHUNK_BYTES", 16 * 8 * 750 * 2)  # two rows per block, read at call time
+    assert len(csm.trial_chunks(5, 750 * 8)) == 3
     assert np.array_equal(csm.generate_csm(**kw).z, whole)
     segs = [csm.Segment(0.0, 0.8, 0.2), csm.Segment(3.0, 0.5, 0.4)]
     prof_small = csm.generate_csm_profile(seed=3, name="p", trials=list(range(5)), n_epochs=700, ts=0.01, segments=segs, nspa=8, warmup=50)[0].z
-    monkeypatch.setattr(csm, "CHUNK_BYTES", 1 << 30)
+    monkeypatch.setattr(row_blocks, "CHUNK_BYTES", 1 << 30)
+    assert len(csm.trial_chunks(5, 750 * 8)) == 1
     prof_whole = csm.generate_csm_profile(seed=3, name="p", trials=list(range(5)), n_epochs=700, ts=0.01, segments=segs, nspa=8, warmup=50)[0].z
     assert np.array_equal(prof_small, prof_whole)
+
+
+def test_row_blocked_prompts_and_polar_equal_the_whole_array_expressions(monkeypatch):
+    rng = np.random.default_rng(7)
+    theta = np.cumsum(rng.normal(size=(7, 500)), axis=1)
+    rho = rng.rayleigh(size=(7, 500))
+    noise = rng.normal(size=(7, 500)) + 1j * rng.normal(size=(7, 500))
+    whole = 0.8 * rho * np.exp(1j * theta) + noise
+    whole_scalar = 0.8 * 1.0 * np.exp(1j * theta) + noise
+    z = csm.generate_csm(seed=1, name="polar", trials=list(range(7)), n_epochs=500, ts=0.01, s4=0.9, tau0=0.1)
+    rho_z, theta_z = np.abs(z.z), np.unwrap(np.angle(z.z), axis=-1)
+    monkeypatch.setattr(row_blocks, "CHUNK_BYTES", 16 * 500 * 3)  # three rows per block: 3 + 3 + 1
+    from scintrack.signals.correlator import prompts
+
+    assert np.array_equal(prompts(theta, rho, noise, 0.8).view(np.int64), whole.view(np.int64))
+    assert np.array_equal(prompts(theta, 1.0, noise, 0.8).view(np.int64), whole_scalar.view(np.int64))
+    buf = noise.copy()
+    assert prompts(theta, rho, buf, 0.8, out=buf) is buf and np.array_equal(buf.view(np.int64), whole.view(np.int64))
+    r, t = z.polar()
+    assert np.array_equal(r, rho_z) and np.array_equal(t, theta_z)
+    assert np.abs(np.diff(t, axis=-1)).max() <= np.pi  # unwrapped along time in every block
+
+
+def test_column_nanmedian_kernel_equals_numpy_bit_for_bit():
+    from scintrack.trackers.kernels import column_nanmedian_kernel
+
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 25, 100):
+        v = rng.lognormal(size=(n, 400)) * rng.choice([-1.0, 1.0], size=(n, 400))
+        v[rng.random((n, 400)) < 0.2] = np.nan  # odd and even counts per column
+        v[:, :5] = np.nan  # all-NaN columns
+        v[0, 10] = np.inf
+        v[-1, 11] = -np.inf
+        v[:, 12] = 2.5  # ties
+        out = np.empty(400)
+        column_nanmedian_kernel(v, out)
+        with np.errstate(all="ignore"), __import__("warnings").catch_warnings():
+            __import__("warnings").simplefilter("ignore", RuntimeWarning)
+            ref = np.nanmedian(v, axis=0)
+        assert np.array_equal(out.view(np.int64), ref.view(np.int64)), n
+
+
+def _detect_numpy(out):
+    """The guards' first-epoch scans as the whole-array numpy expressions they replaced (the reference)."""
+    from scintrack.experiments import guards
+
+    theta = np.asarray(out.theta_d)
+    nonfinite = np.zeros(theta.shape, dtype=bool)
+    for key, v in guards.guarded(out).items():
+        nonfinite |= guards._bad(key, v)
+    step = np.zeros(theta.shape, dtype=bool)
+    for key in ("theta_d", "total_phase"):
+        v = out.theta_d if key == "theta_d" else out.extras.get(key)
+        if v is not None:
+            with np.errstate(invalid="ignore", over="ignore"):
+                step[:, 2:] |= np.abs(np.diff(np.asarray(v, dtype=float), n=2, axis=-1)) > guards.STEP_LIMIT_RAD
+
+    def first(mask):
+        return np.where(mask.any(axis=-1), np.argmax(mask, axis=-1), -1)
+
+    return first(nonfinite), first(step)
+
+
+def test_guard_scans_find_the_epochs_the_numpy_masks_find():
+    from scintrack.experiments import guards
+    from scintrack.trackers.base import TrackOutput
+
+    rng = np.random.default_rng(11)
+    n, k = 12, 300
+    theta = np.cumsum(rng.normal(scale=0.3, size=(n, k)), axis=1)
+    total = theta + 0.1
+    freq = rng.normal(size=(n, k))
+    theta[1, 40] = np.nan
+    theta[2, 50] = 2e12  # a phase beyond the limit
+    freq[2, 20] = np.inf  # earlier, in another array
+    freq[3, 60] = 5e12  # not a phase: no limit
+    theta[4, 70:] += 7.0  # a jump: exploding step at 70 (and 71)
+    total[5, 30] = -np.inf
+    total[6, 90:] -= 7.0
+    theta[7, 10] = np.nan
+    theta[7, 200:] += 9.0  # a step after the NaN (around the NaN the differences are NaN: no step there)
+    out = TrackOutput(theta_d=theta, extras={"frequency_hz": freq, "total_phase": total, "phi3": np.full((n, k), np.nan)})
+    ref_nonfinite, ref_step = _detect_numpy(out)
+    div = guards.detect(out)
+    assert list(ref_nonfinite[:8]) == [-1, 40, 20, -1, -1, 30, -1, 10] and list(ref_step[[4, 6, 7]]) == [70, 90, 200]
+    for t in range(n):  # earliest of the candidates, reasons as the module docstring orders them
+        cands = [(e, code) for code, e in ((1, ref_nonfinite[t]), (3, ref_step[t])) if e >= 0]
+        want = min(cands, key=lambda c: (c[0], (2, 1, 3).index(c[1]))) if cands else (-1, 0)
+        assert (div.epoch[t], div.reason[t]) == want, t
 
 
 def test_trial_chunks_cover_every_row_once():

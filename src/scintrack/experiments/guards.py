@@ -122,12 +122,6 @@ def _bad(key: str, v: np.ndarray) -> np.ndarray:
     return bad
 
 
-def _first(mask: np.ndarray) -> np.ndarray:
-    """First True along the last axis, -1 where none (int64)."""
-    hit = mask.any(axis=-1)
-    return np.where(hit, np.argmax(mask, axis=-1), -1).astype(np.int64)
-
-
 def detect(out, ts: float | None = None) -> Divergence:
     """First epoch and reason of divergence per trial of a tracker output (module docstring).
 
@@ -139,21 +133,21 @@ def detect(out, ts: float | None = None) -> Divergence:
     if theta.ndim != 2:
         raise ValueError(f"theta_d must be shaped (trials, epochs) (got {theta.shape})")
     n_tr, k = theta.shape
+    from ..trackers.kernels import first_nonfinite_kernel, first_step_kernel  # compiled scans: no full-size masks
+
     candidates = {}
-    nonfinite = np.zeros((n_tr, k), dtype=bool)
+    first = np.full(n_tr, -1, dtype=np.int64)
     for key, v in guarded(out).items():
-        nonfinite |= _bad(key, v)
-    candidates[1] = _first(nonfinite)
+        first_nonfinite_kernel(v, key in PHASES, PHASE_LIMIT_RAD, first)
+    candidates[1] = first
     cov = out.extras.get("cov_fail_epoch")
     candidates[2] = np.full(n_tr, -1, dtype=np.int64) if cov is None else np.asarray(cov, dtype=np.int64).reshape(n_tr)
-    step = np.zeros((n_tr, k), dtype=bool)
+    step = np.full(n_tr, -1, dtype=np.int64)
     for key in ("theta_d", "total_phase"):
         v = out.theta_d if key == "theta_d" else out.extras.get(key)
         if v is not None and k >= 3:
-            with np.errstate(invalid="ignore", over="ignore"):
-                d2 = np.abs(np.diff(np.asarray(v, dtype=float), n=2, axis=-1))
-            step[:, 2:] |= d2 > STEP_LIMIT_RAD  # NaN compares False: a NaN is reason 1, not 3
-    candidates[3] = _first(step)
+            first_step_kernel(np.asarray(v, dtype=float), STEP_LIMIT_RAD, step)  # a NaN compares False: a NaN is reason 1, not 3
+    candidates[3] = step
     big = np.iinfo(np.int64).max
     epoch = np.full(n_tr, big, dtype=np.int64)
     reason = np.zeros(n_tr, dtype=np.int8)

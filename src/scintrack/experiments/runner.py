@@ -73,7 +73,6 @@ an attribute, so the content hash of the results does not depend on them).
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
@@ -192,7 +191,10 @@ class TrialMedian:
     The median is taken once the last trial is in, and the trials' values are
     dropped then; a single batch holding every trial is used as it is (no copy).
     All-NaN epochs (the SAKF's monitors before their first window) give NaN
-    without a warning.
+    without a warning.  The median is the compiled
+    :func:`~scintrack.trackers.kernels.column_nanmedian_kernel`: numpy's own
+    over fewer than 600 trials sorts masked copies of the whole array (~0.5 s
+    and ~0.3 GB of fresh memory per SAKF in a 25 x 300 000 shard).
     """
 
     def __init__(self, n: int) -> None:
@@ -210,9 +212,10 @@ class TrialMedian:
             values = self.values
         self.filled += rows.shape[0]
         if self.filled == self.n:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)
-                self.median = np.nanmedian(values, axis=0)
+            from ..trackers.kernels import column_nanmedian_kernel  # np.nanmedian(values, axis=0), bit for bit, no masked copies
+
+            self.median = np.empty(values.shape[1])
+            column_nanmedian_kernel(np.asarray(values, dtype=float), self.median)
             self.values = None
 
     def result(self) -> np.ndarray:

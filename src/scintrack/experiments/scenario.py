@@ -197,16 +197,16 @@ def simulate(
         model_point = (float(model.s4), float(model.tau0))
         s4_t, tau0_t = np.full(n_epochs, model_point[0]), np.full(n_epochs, model_point[1])  # the point used, not the request
     elif len(segs) == 1:
-        z = generate_csm(seed=seed, name=f"scenario/{name}/csm", trials=trials, n_epochs=n_epochs, ts=ts, s4=segs[0].s4, tau0=segs[0].tau0, nspa=nspa, warmup=warmup).z
-        rho, theta_s = np.abs(z), np.unwrap(np.angle(z), axis=-1)
+        rho, theta_s = generate_csm(seed=seed, name=f"scenario/{name}/csm", trials=trials, n_epochs=n_epochs, ts=ts, s4=segs[0].s4, tau0=segs[0].tau0, nspa=nspa,
+                                    warmup=warmup).polar()
         s4_t, tau0_t = np.full(n_epochs, segs[0].s4), np.full(n_epochs, segs[0].tau0)
     else:
         real, s4_t, tau0_t = generate_csm_profile(seed=seed, name=f"scenario/{name}/csm", trials=trials, n_epochs=n_epochs, ts=ts, segments=segs, nspa=nspa, warmup=warmup)
-        rho, theta_s = real.rho, real.theta
+        rho, theta_s = real.polar()
     if scenario.get("csm_phase", "unwrapped") == "wrapped":
         theta_s = wrap(theta_s)
     s2 = noise_power(cn0, ts, amp)
     noise = complex_noise(seed, f"scenario/{name}/noise", trials, n_epochs, s2)
-    y = prompts(theta_d + theta_s, rho, noise, amp)
+    y = prompts(theta_d + theta_s, rho, noise, amp, out=noise)  # in place: no second (trials, epochs) complex array
     return Realisation(trials=trials, ts=ts, theta_d=theta_d, theta_s=theta_s, rho_s=rho, y=y, noise_power=s2, s4_t=s4_t, tau0_t=tau0_t, fd0_hz=fd0,
                        seed=int(seed), name=name, model_point=model_point)

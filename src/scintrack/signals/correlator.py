@@ -15,6 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..seeding import rng_for
+from .row_blocks import row_blocks
 
 
 def noise_power(cn0_dbhz: float, ts: float, amplitude: float = 1.0) -> float:
@@ -32,6 +33,27 @@ def complex_noise(seed: int, name: str, trials: Sequence[int], n_epochs: int, po
     return out
 
 
-def prompts(theta: np.ndarray, rho: np.ndarray | float, noise: np.ndarray, amplitude: float = 1.0) -> np.ndarray:
-    """Correlator outputs for total phase ``theta`` and amplitude gain ``rho``."""
-    return amplitude * rho * np.exp(1j * theta) + noise
+def prompts(theta: np.ndarray, rho: np.ndarray | float, noise: np.ndarray, amplitude: float = 1.0, out: np.ndarray | None = None) -> np.ndarray:
+    """Correlator outputs ``amplitude rho exp(j theta) + noise`` for total phase ``theta`` and amplitude gain ``rho``.
+
+    Computed a few rows at a time (:mod:`.row_blocks`), so the temporaries of
+    the expression stay small; the values are those of the whole-array
+    expression, bit for bit.  ``out`` (complex, the broadcast shape) receives
+    the result and may be ``noise`` itself (its rows are read before they are
+    written).
+    """
+    theta = np.asarray(theta, dtype=float)
+    noise = np.asarray(noise)
+    rho_a = np.asarray(rho, dtype=float)
+    shape = np.broadcast_shapes(theta.shape, rho_a.shape, noise.shape)
+    if out is None:
+        out = np.empty(shape, dtype=complex)
+    if len(shape) != 2:
+        out[...] = amplitude * rho * np.exp(1j * theta) + noise
+        return out
+    theta, noise = np.broadcast_to(theta, shape), np.broadcast_to(noise, shape)
+    rho_b = np.broadcast_to(rho_a, shape) if rho_a.ndim else float(rho_a)
+    for lo, hi in row_blocks(shape[0], 16 * shape[1]):
+        r = rho_b[lo:hi] if rho_a.ndim else rho_b
+        out[lo:hi] = amplitude * r * np.exp(1j * theta[lo:hi]) + noise[lo:hi]
+    return out

@@ -50,13 +50,12 @@ import numpy as np
 
 from ..estimators.s4 import s4_index  # noqa: F401  (S4 lives in estimators.s4; re-exported)
 from ..seeding import rng_for
+from .row_blocks import row_blocks
 
 BETA0 = 1.23964643681047
 #: the largest S4 the CSM realises (m = max(1, 1/S4^2) >= 1: Rician, Rayleigh at S4 = 1)
 S4_MAX = 1.0
 NSPA_DEFAULT = 8
-#: sub-sample working set of one generation block [bytes] (see :func:`trial_chunks`)
-CHUNK_BYTES = 64 * 2**20
 
 
 def rice_k_from_s4(s4: float | np.ndarray) -> np.ndarray:
@@ -127,6 +126,18 @@ class CsmRealisation:
         """Scintillation phase ``unwrap(angle(z))`` in rad, along time."""
         return np.unwrap(np.angle(self.z), axis=-1)
 
+    def polar(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(rho, theta)`` computed a few rows at a time (:mod:`.row_blocks`: small temporaries, the same bits)."""
+        z = self.z
+        if z.ndim != 2:
+            return self.rho, self.theta
+        rho = np.empty(z.shape)
+        theta = np.empty(z.shape)
+        for lo, hi in row_blocks(z.shape[0], 16 * z.shape[-1]):
+            rho[lo:hi] = np.abs(z[lo:hi])
+            theta[lo:hi] = np.unwrap(np.angle(z[lo:hi]), axis=-1)
+        return rho, theta
+
     @property
     def time(self) -> np.ndarray:
         return np.arange(self.z.shape[-1]) * self.ts
@@ -190,16 +201,17 @@ def generate_csm(
     return CsmRealisation(z=z, ts=ts)
 
 
-def trial_chunks(n_trials: int, n_sub: int, budget_bytes: int = CHUNK_BYTES) -> list[tuple[int, int]]:
-    """Row blocks ``[lo, hi)`` whose complex sub-sample arrays (``n_sub`` samples per row) fit ``budget_bytes``.
+def trial_chunks(n_trials: int, n_sub: int, budget_bytes: int | None = None) -> list[tuple[int, int]]:
+    """Row blocks ``[lo, hi)`` whose complex sub-sample arrays (``n_sub`` samples per row) fit the budget.
 
-    Generation streams over these blocks (issue 14: 500 s x 500 trials at
-    ``Nspa = 8`` would otherwise hold several GB); the values do not depend on
-    the blocking, since every operation is per row (one seed stream, one
-    filter pass, one normalisation per trial).
+    Generation streams over these blocks (:mod:`.row_blocks`; the budget
+    defaults to its ``CHUNK_BYTES``, 8 MB: a 500-s scenario one row at a time);
+    the values do not depend on the blocking, since every operation is per
+    row (one seed stream, one filter pass, one normalisation per trial).
+    Blocks of 64 MB (before the thirteenth round of issue 14) made a 500-s
+    cycle-slip shard ~250 MB larger and cost it 2-3 s of page faults.
     """
-    rows = max(1, int(budget_bytes // (16 * max(n_sub, 1))))
-    return [(lo, min(lo + rows, n_trials)) for lo in range(0, n_trials, rows)]
+    return row_blocks(n_trials, 16 * max(n_sub, 1), budget_bytes)
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,9 @@
 """Compiled (numba) loops that are not trackers: the cycle-slip counter and
-the unit phasors of :mod:`scintrack.experiments.metrics`.
+the unit phasors of :mod:`scintrack.experiments.metrics`, the median over
+trials of the runner (:class:`scintrack.experiments.runner.TrialMedian`) and
+the scans of the divergence guards (:func:`scintrack.experiments.guards.detect`).
+Each gives what its numpy form gives, bit for bit, without the numpy form's
+full-size temporaries (``tests/test_speed_paths.py``).
 
 The trackers' kernels live in their own modules (:mod:`.pll`, :mod:`.kf`,
 :mod:`.aekf_ar`) and are made of the building blocks in :mod:`.blocks`.
@@ -52,3 +56,65 @@ def sin_cos_kernel(e, s, c):
     for i in range(e.size):
         s[i] = math.sin(e[i])
         c[i] = math.cos(e[i])
+
+
+@njit(cache=True)
+def column_nanmedian_kernel(v, out):
+    """``out[j] = numpy.nanmedian(v[:, j])`` for a 2-D float array ``v`` (rows: trials), NaN for an all-NaN column.
+
+    numpy's own ``nanmedian(v, axis=0)`` over fewer than 600 rows goes through
+    masked arrays (a full argsort of ``v`` and several copies of its size:
+    ~0.5 s and ~0.3 GB for 25 x 300 000).  Here each column's finite-or-inf
+    values are gathered, sorted, and the median is ``(low + high) / 2`` of the
+    two middle values (the same one for an odd count), the same two
+    operations numpy's masked median makes, so the values are the same bits
+    (``tests/test_speed_paths.py``).
+    """
+    n, k = v.shape
+    buf = np.empty(n)
+    for j in range(k):
+        c = 0
+        for i in range(n):
+            x = v[i, j]
+            if not math.isnan(x):
+                buf[c] = x
+                c += 1
+        if c == 0:
+            out[j] = np.nan
+            continue
+        s = np.sort(buf[:c])
+        h = c // 2
+        lo = h if c % 2 == 1 else h - 1
+        out[j] = (s[lo] + s[h]) / 2.0
+
+
+@njit(cache=True)
+def first_nonfinite_kernel(v, is_phase, limit, first):
+    """Lower ``first[t]`` (-1: none yet) to the first epoch of row ``t`` where ``v`` is NaN or inf, or, for a phase, beyond ``limit``.
+
+    One pass that stops at the row's current ``first`` (the guards of
+    :mod:`scintrack.experiments.guards` take the earliest over several arrays).
+    """
+    n, k = v.shape
+    for t in range(n):
+        stop = k if first[t] < 0 else first[t]
+        for i in range(stop):
+            x = v[t, i]
+            if not math.isfinite(x) or (is_phase and abs(x) > limit):
+                first[t] = i
+                break
+
+
+@njit(cache=True)
+def first_step_kernel(v, limit, first):
+    """Lower ``first[t]`` to the first epoch ``i >= 2`` of row ``t`` with ``|(v_i - v_{i-1}) - (v_{i-1} - v_{i-2})| > limit``.
+
+    The same two subtractions as ``numpy.diff(v, n=2)``; a NaN compares False.
+    """
+    n, k = v.shape
+    for t in range(n):
+        stop = k if first[t] < 0 else first[t]
+        for i in range(2, stop):
+            if abs((v[t, i] - v[t, i - 1]) - (v[t, i - 1] - v[t, i - 2])) > limit:
+                first[t] = i
+                break
