@@ -18,6 +18,7 @@ Snakemake builds the DAG.
 
 from __future__ import annotations
 
+from ..signals.row_blocks import spans
 from ..trackers.lanes import LANES
 
 #: trial-epochs a shard simulates and tracks at once
@@ -33,8 +34,7 @@ def batch_rows(n_epochs: int, budget: int = BATCH_TRIAL_EPOCHS) -> int:
 
 def trial_batches(n_trials: int, n_epochs: int, budget: int = BATCH_TRIAL_EPOCHS) -> list[tuple[int, int]]:
     """Blocks ``[lo, hi)`` of ``n_trials`` trials, :func:`batch_rows` trials each (the last one the rest)."""
-    rows = batch_rows(n_epochs, budget)
-    return [(lo, min(lo + rows, n_trials)) for lo in range(0, n_trials, rows)]
+    return spans(n_trials, batch_rows(n_epochs, budget))
 
 
 def trials_held(n_trials: int, n_epochs: int, budget: int = BATCH_TRIAL_EPOCHS) -> int:

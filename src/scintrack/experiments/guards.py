@@ -116,6 +116,8 @@ def guarded(out) -> dict[str, np.ndarray]:
 
 
 def _bad(key: str, v: np.ndarray) -> np.ndarray:
+    # The mask form of the guard's test (sanitize needs it per entry); detect finds the first such entry
+    # per trial with the compiled scan trackers.kernels.first_nonfinite_kernel, which applies the same test.
     bad = ~np.isfinite(v)
     if key in PHASES:
         bad |= np.abs(np.where(bad, 0.0, v)) > PHASE_LIMIT_RAD

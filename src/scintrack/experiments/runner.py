@@ -82,6 +82,7 @@ import xarray as xr
 
 from ..io import canonical_json
 from ..progress import Progress
+from ..signals.row_blocks import spans
 from ..trackers import registry
 from ..trackers.base import TrackerContext
 from . import guards
@@ -340,9 +341,8 @@ def run_shard(
             div = guards.detect(out, ts)
             div_epoch[j, rows], div_reason[j, rows] = div.epoch, div.reason
             out = guards.sanitize(out, div, fallback=init.phase)
-            for r0 in range(0, hi - lo, METRIC_ROWS):  # the metrics a few trials at a time: small temporaries
-                c = slice(r0, min(r0 + METRIC_ROWS, hi - lo))  # rows of the batch
-                g = slice(lo + c.start, lo + c.stop)  # rows of the shard
+            for r0, r1 in spans(hi - lo, METRIC_ROWS):  # the metrics a few trials at a time: small temporaries
+                c, g = slice(r0, r1), slice(lo + r0, lo + r1)  # rows of the batch, of the shard
                 if "total_phase" in out.extras:
                     total_hat = out.extras["total_phase"][c]
                 elif "theta_s" in out.extras:

@@ -42,18 +42,14 @@ def prompts(theta: np.ndarray, rho: np.ndarray | float, noise: np.ndarray, ampli
     the result and may be ``noise`` itself (its rows are read before they are
     written).
     """
-    theta = np.asarray(theta, dtype=float)
-    noise = np.asarray(noise)
-    rho_a = np.asarray(rho, dtype=float)
-    shape = np.broadcast_shapes(theta.shape, rho_a.shape, noise.shape)
+    theta, rho, noise = np.asarray(theta, dtype=float), np.asarray(rho, dtype=float), np.asarray(noise)
+    shape = np.broadcast_shapes(theta.shape, rho.shape, noise.shape)
     if out is None:
         out = np.empty(shape, dtype=complex)
-    if len(shape) != 2:
+    if len(shape) != 2:  # not (trials, epochs): one block
         out[...] = amplitude * rho * np.exp(1j * theta) + noise
         return out
-    theta, noise = np.broadcast_to(theta, shape), np.broadcast_to(noise, shape)
-    rho_b = np.broadcast_to(rho_a, shape) if rho_a.ndim else float(rho_a)
+    theta, rho, noise = (np.broadcast_to(v, shape) for v in (theta, rho, noise))  # a scalar rho: the same products
     for lo, hi in row_blocks(shape[0], 16 * shape[1]):
-        r = rho_b[lo:hi] if rho_a.ndim else rho_b
-        out[lo:hi] = amplitude * r * np.exp(1j * theta[lo:hi]) + noise[lo:hi]
+        out[lo:hi] = amplitude * rho[lo:hi] * np.exp(1j * theta[lo:hi]) + noise[lo:hi]
     return out

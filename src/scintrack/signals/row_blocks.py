@@ -17,11 +17,15 @@ from __future__ import annotations
 CHUNK_BYTES = 8 * 2**20
 
 
+def spans(n: int, size: int) -> list[tuple[int, int]]:
+    """``[lo, hi)`` spans of ``size`` (the last one the rest) covering ``range(n)``: every blocking of rows uses it."""
+    return [(lo, min(lo + size, n)) for lo in range(0, n, size)]
+
+
 def row_blocks(n_rows: int, row_bytes: int, budget_bytes: int | None = None) -> list[tuple[int, int]]:
     """Blocks ``[lo, hi)`` of rows whose arrays of ``row_bytes`` per row fit the budget (at least one row each).
 
     ``budget_bytes`` defaults to :data:`CHUNK_BYTES`, read at call time.
     """
     budget = CHUNK_BYTES if budget_bytes is None else budget_bytes
-    rows = max(1, int(budget // max(int(row_bytes), 1)))
-    return [(lo, min(lo + rows, n_rows)) for lo in range(0, n_rows, rows)]
+    return spans(n_rows, max(1, int(budget // max(int(row_bytes), 1))))

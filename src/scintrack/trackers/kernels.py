@@ -82,7 +82,8 @@ def column_nanmedian_kernel(v, out):
         if c == 0:
             out[j] = np.nan
             continue
-        s = np.sort(buf[:c])
+        s = buf[:c]
+        s.sort()  # in place: no array per column
         h = c // 2
         lo = h if c % 2 == 1 else h - 1
         out[j] = (s[lo] + s[h]) / 2.0
