@@ -18,6 +18,7 @@ from scintrack.signals.correlator import complex_noise, noise_power, prompts
 from scintrack.signals.dynamics import third_order_phase
 from scintrack.trackers import blocks
 from scintrack.trackers.base import TrackInit, initial_state
+from scintrack.trackers.held_series import HeldSeries
 from scintrack.trackers.kf import DiscriminatorKF, kf_kernel, kf_kernel_scalar
 from scintrack.trackers.pll import PLL, pll_kernel, pll_kernel_scalar
 from scintrack.trackers.susi_kf import GainWeighting, SusiKF, susi_kernel, susi_kernel_scalar, susi_state
@@ -153,6 +154,9 @@ def test_susi_lane_kernel_is_the_scalar_kernel_bit_for_bit(kind, ts):
         if tr.scintillation and n > 1:
             assert np.isfinite(scalar.extras["p"][:, -1]).any()  # the scintillation refresh ran
         lanes = tr.run(y[s], _sub(init, s))
+        if tr.scintillation:  # the monitors held per chunk of the schedule (compared as arrays below)
+            assert all(isinstance(lanes.extras[m], HeldSeries) for m in ("phi3", "T", "p", "weight"))
+            assert list(lanes.extras["T"].starts) == [i0 for i0, _ in tr._schedule(y.shape[1])]
         assert _bits_equal(lanes.theta_d, scalar.theta_d), (kind, ts, n)
         assert lanes.extras.keys() == scalar.extras.keys()
         for key in scalar.extras:

@@ -128,6 +128,57 @@ def test_guard_scans_find_the_epochs_the_numpy_masks_find():
         assert (div.epoch[t], div.reason[t]) == want, t
 
 
+def _held(rng, n=7, k=53, starts=(0, 4, 11, 12, 40)):
+    from scintrack.trackers.held_series import HeldSeries
+
+    values = rng.normal(size=(n, len(starts)))
+    values[2, 1] = values[5, 3] = np.nan  # a trial without a value in a run
+    values[:, 0] = np.nan  # the monitors before their first window: all NaN
+    values[3, 2] = np.inf
+    return HeldSeries(values, np.array(starts), k)
+
+
+def test_held_series_reads_as_the_array_it_stands_for():
+    from scintrack.trackers.held_series import HeldSeries
+
+    held = _held(np.random.default_rng(5))
+    full = np.asarray(held)
+    counts = np.diff([0, 4, 11, 12, 40, 53])
+    by_loop = np.concatenate([np.repeat(held.values[:, [r]], c, axis=1) for r, c in enumerate(counts)], axis=1)
+    assert full.shape == held.shape == (7, 53) and held.dtype == full.dtype and len(held) == 7
+    assert np.array_equal(full.view(np.uint64), by_loop.view(np.uint64))
+    part = held[2:6]
+    assert isinstance(part, HeldSeries) and np.array_equal(np.asarray(part), full[2:6], equal_nan=True)
+    assert np.array_equal(held[:, -1], full[:, -1], equal_nan=True) and np.array_equal(held[3], full[3], equal_nan=True)
+    for starts, k in (((1, 5), 9), ((0, 5, 5), 9), ((0, 9), 9), ((), 4)):  # not from 0, not rising, past the end, no run
+        with pytest.raises(ValueError):
+            HeldSeries(np.zeros((2, len(starts))), np.array(starts, dtype=np.int64), k)
+
+
+def test_trial_reductions_on_held_series_equal_those_on_the_expanded_arrays():
+    """The runner's NaN-mean and median over trials, fed a held series in batches, give the bits they give
+    on the expanded (trials, epochs) arrays; mixing layouts in one reduction is refused."""
+    from scintrack.experiments.runner import NanMean, TrialMedian
+
+    held = _held(np.random.default_rng(9))
+    full = np.asarray(held)
+    for batches in ((slice(0, 7),), (slice(0, 3), slice(3, 7)), (slice(0, 1), slice(1, 2), slice(2, 7))):
+        for make in (NanMean, lambda: TrialMedian(7)):
+            on_held, on_full = make(), make()
+            for b in batches:
+                on_held.add(held[b])
+                on_full.add(full[b])
+            a, want = on_held.result(), on_full.result()
+            assert a.shape == (53,) and np.array_equal(a.view(np.uint64), want.view(np.uint64)), (make, batches)
+    mixed = NanMean()
+    mixed.add(held[0:3])
+    with pytest.raises(ValueError):
+        mixed.add(full[3:7])
+    other = _held(np.random.default_rng(9), starts=(0, 5, 11, 12, 40))
+    with pytest.raises(ValueError):
+        mixed.add(other[3:7])
+
+
 def test_trial_chunks_cover_every_row_once():
     blocks = csm.trial_chunks(11, 1000, budget_bytes=16 * 1000 * 3)
     assert blocks[0] == (0, 3) and blocks[-1] == (9, 11)

@@ -109,8 +109,10 @@ def guarded(out) -> dict[str, np.ndarray]:
     theta = np.asarray(out.theta_d)
     arrays = {"theta_d": theta}
     for key, value in out.extras.items():
+        if key in NONFINITE_ALLOWED:  # before any conversion: an SAKF monitor is a HeldSeries, expanded by asarray
+            continue
         v = np.asarray(value)
-        if key not in NONFINITE_ALLOWED and v.shape == theta.shape and np.issubdtype(v.dtype, np.floating):
+        if v.shape == theta.shape and np.issubdtype(v.dtype, np.floating):
             arrays[key] = v
     return arrays
 

@@ -85,6 +85,7 @@ from ..progress import Progress
 from ..signals.row_blocks import spans
 from ..trackers import registry
 from ..trackers.base import TrackerContext
+from ..trackers.held_series import HeldSeries
 from . import guards
 from .batching import BATCH_TRIAL_EPOCHS, METRIC_ROWS, trial_batches
 from .merge import MONITORS, merge  # noqa: F401  (merge: re-exported; it lives in .merge, light to import)
@@ -186,6 +187,34 @@ class S4Statistics:
         return mean, frac
 
 
+class ColumnLayout:
+    """The columns a reduction over trials is fed: plain (trials, epochs) arrays, or one
+    :class:`~scintrack.trackers.held_series.HeldSeries` layout (the SAKF's monitors).
+
+    A reduction over trials works column by column, so on a held series it gives the same bits on the
+    values of each run as on every epoch of the run (each epoch's column is its run's column); it is
+    computed on the runs and only its 1-D result is expanded (:meth:`expand`).  Every batch of one
+    reduction must come in the same layout.
+    """
+
+    def __init__(self) -> None:
+        self.held: HeldSeries | None = None
+        self.seen = False
+
+    def columns(self, rows):
+        """The array to reduce over its rows: ``rows`` itself, or a held series' per-run values."""
+        held = rows if isinstance(rows, HeldSeries) else None
+        if not self.seen:
+            self.seen, self.held = True, held
+        elif (held is None) != (self.held is None) or (held is not None and not held.same_runs(self.held)):
+            raise ValueError("the batches of one reduction over trials must share their column layout")
+        return np.asarray(rows) if held is None else held.values
+
+    def expand(self, result: np.ndarray) -> np.ndarray:
+        """The reduction's result per epoch."""
+        return result if self.held is None else self.held.expand_columns(result)
+
+
 class TrialMedian:
     """``np.nanmedian(values, axis=0)`` over all ``n`` trials, fed batch by batch.
 
@@ -195,15 +224,18 @@ class TrialMedian:
     without a warning.  The median is the compiled
     :func:`~scintrack.trackers.kernels.column_nanmedian_kernel`: numpy's own
     over fewer than 600 trials sorts masked copies of the whole array (~0.5 s
-    and ~0.3 GB of fresh memory per SAKF in a 25 x 300 000 shard).
+    and ~0.3 GB of fresh memory per SAKF in a 25 x 300 000 shard).  A held
+    series (:class:`ColumnLayout`) is reduced on its runs.
     """
 
     def __init__(self, n: int) -> None:
         self.n, self.filled = n, 0
         self.values: np.ndarray | None = None
         self.median: np.ndarray | None = None
+        self.layout = ColumnLayout()
 
     def add(self, rows: np.ndarray) -> None:
+        rows = self.layout.columns(rows)
         if self.filled == 0 and rows.shape[0] == self.n:
             values = rows
         else:
@@ -220,23 +252,26 @@ class TrialMedian:
             self.values = None
 
     def result(self) -> np.ndarray:
-        return self.median
+        return self.layout.expand(self.median)
 
 
 class NanMean:
-    """``np.nanmean(rows, axis=0)`` over all batches of rows, bit for bit (NaN, without a warning, where no row has a value)."""
+    """``np.nanmean(rows, axis=0)`` over all batches of rows, bit for bit (NaN, without a warning, where no row
+    has a value); a held series (:class:`ColumnLayout`) is reduced on its runs."""
 
     def __init__(self) -> None:
         self.sum, self.count = RowSum(), RowSum()
+        self.layout = ColumnLayout()
 
     def add(self, rows: np.ndarray) -> None:
+        rows = self.layout.columns(rows)
         nan = np.isnan(rows)
         self.sum.add(np.where(nan, 0.0, rows))
         self.count.add((~nan).astype(np.intp))
 
     def result(self) -> np.ndarray:
         with np.errstate(invalid="ignore", divide="ignore"):
-            return np.divide(self.sum.total, self.count.total)
+            return self.layout.expand(np.divide(self.sum.total, self.count.total))
 
 
 def window_std(a: np.ndarray, per: int) -> np.ndarray:

@@ -41,7 +41,12 @@ dynamics exactly; a causal 0.1-Hz Butterworth would ring for tens of
 seconds after acquisition under a 100 Hz/s rate); Phi3, T and p are
 refreshed every ``update_s`` (0.1 s) rather than at every epoch (the window
 still slides: it always holds the last ``window_s``); before the first full
-window the scintillation PSDs are 0 and ``w = alpha``.
+window the scintillation PSDs are 0 and ``w = alpha``.  The recorded monitors
+(``phi3``, ``T``, ``p``, ``weight``) are therefore constant over each refresh
+period, and :meth:`SusiKF.run` returns them as
+:class:`~.held_series.HeldSeries` (one value per trial and period; read as
+arrays they are the per-epoch series, the same bits), not as (trials, epochs)
+arrays written epoch by epoch (issue 14: 240 MB less per SAKF in a Susi shard).
 
 The compiled kernel (:func:`susi_kernel`) processes the epochs between two
 refreshes for every trial and keeps its state across calls, so an AKF run
@@ -106,6 +111,7 @@ from .base import (
     spec_q_jerk,
 )
 from .design import compose
+from .held_series import HeldSeries
 from .registry import register
 
 F_IRREGULARITY_HZ = 0.19  # Susi Sec. 3, after Forte & Radicella 2002
@@ -436,16 +442,20 @@ class SusiKF:
         cov_fail = np.full(n_tr, -1, dtype=np.int64)
         series = {"discriminator": innov, "frequency_hz": freq, "R": r_out}
         scint_names = ("phi3", "T", "p", "weight")
-        if self.scintillation:
-            series.update({name: np.empty((n_tr, k)) for name in scint_names})  # every chunk of the schedule writes its epochs
+        schedule = self._schedule(k)
+        if self.scintillation:  # one value per trial and chunk of the schedule (held over its epochs: HeldSeries)
+            held = {name: np.empty((len(schedule), n_tr)) for name in scint_names}
         sc = self._initial_scint(n_tr)
-        for i0, i1 in self._schedule(k):
+        for h, (i0, i1) in enumerate(schedule):
             susi_kernel(y, i0, i1, prm, st, sc["s_phi"], sc["s_f"], sc["weight"], out, innov, freq, r_out, cov_fail)
             if self.scintillation:
                 for name in scint_names:
-                    series[name][:, i0:i1] = sc[name][:, None]
+                    held[name][h] = sc[name]
                 if i1 >= self.n_window:
                     sc = self.scintillation_update(out[:, i1 - self.n_window : i1])
+        if self.scintillation:
+            starts = np.array([i0 for i0, _ in schedule], dtype=np.int64)
+            series.update({name: HeldSeries(np.ascontiguousarray(v.T), starts, k) for name, v in held.items()})
         return self._outputs(out, series, cov_fail)
 
     # --- textbook form -------------------------------------------------------------
