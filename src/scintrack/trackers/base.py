@@ -50,7 +50,12 @@ class TrackInit:
 
 @dataclass
 class TrackOutput:
-    """Estimates of the dynamics phase and optional extras, (trials, epochs)."""
+    """Estimates of the dynamics phase and optional extras, (trials, epochs).
+
+    An extra that holds its value over runs of epochs may be a
+    :class:`~.held_series.HeldSeries` (the SAKF's monitors): it reads as the
+    (trials, epochs) array through ``numpy.asarray`` and indexing.
+    """
 
     theta_d: np.ndarray
     extras: dict[str, np.ndarray] = field(default_factory=dict)
