@@ -134,8 +134,8 @@ class CsmRealisation:
         rho = np.empty(z.shape)
         theta = np.empty(z.shape)
         for lo, hi in row_blocks(z.shape[0], 16 * z.shape[-1]):
-            rho[lo:hi] = np.abs(z[lo:hi])
-            theta[lo:hi] = np.unwrap(np.angle(z[lo:hi]), axis=-1)
+            rows = CsmRealisation(z=z[lo:hi], ts=self.ts)  # the same definitions as .rho and .theta, on a block of rows
+            rho[lo:hi], theta[lo:hi] = rows.rho, rows.theta
         return rho, theta
 
     @property

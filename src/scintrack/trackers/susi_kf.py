@@ -115,6 +115,8 @@ from .held_series import HeldSeries
 from .registry import register
 
 F_IRREGULARITY_HZ = 0.19  # Susi Sec. 3, after Forte & Radicella 2002
+#: the SAKF's recorded monitors, refreshed with the scintillation blocks
+MONITORS = ("phi3", "T", "p", "weight")
 RECORDABLE = ("discriminator", "frequency_hz", "R", "phi3", "T", "p", "weight")
 
 
@@ -441,15 +443,14 @@ class SusiKF:
         out, innov, freq, r_out = (np.empty((n_tr, k)) for _ in range(4))
         cov_fail = np.full(n_tr, -1, dtype=np.int64)
         series = {"discriminator": innov, "frequency_hz": freq, "R": r_out}
-        scint_names = ("phi3", "T", "p", "weight")
         schedule = self._schedule(k)
         if self.scintillation:  # one value per trial and chunk of the schedule (held over its epochs: HeldSeries)
-            held = {name: np.empty((len(schedule), n_tr)) for name in scint_names}
+            held = {name: np.empty((len(schedule), n_tr)) for name in MONITORS}
         sc = self._initial_scint(n_tr)
         for h, (i0, i1) in enumerate(schedule):
             susi_kernel(y, i0, i1, prm, st, sc["s_phi"], sc["s_f"], sc["weight"], out, innov, freq, r_out, cov_fail)
             if self.scintillation:
-                for name in scint_names:
+                for name in MONITORS:
                     held[name][h] = sc[name]
                 if i1 >= self.n_window:
                     sc = self.scintillation_update(out[:, i1 - self.n_window : i1])
@@ -479,9 +480,8 @@ class SusiKF:
         out, innov, freq, r_out = (np.empty((n_tr, k)) for _ in range(4))
         cov_fail = np.full(n_tr, -1, dtype=np.int64)
         series = {"discriminator": innov, "frequency_hz": freq, "R": r_out}
-        scint_names = ("phi3", "T", "p", "weight")
         if self.scintillation:
-            series.update({name: np.empty((n_tr, k)) for name in scint_names})  # every chunk of the schedule writes its epochs
+            series.update({name: np.empty((n_tr, k)) for name in MONITORS})  # every chunk of the schedule writes its epochs
         sc = self._initial_scint(n_tr)
         ts = self.ts
         for i0, i1 in self._schedule(k):
@@ -515,7 +515,7 @@ class SusiKF:
                 cov_fail[(cov_fail < 0) & ~blocks.covariance_ok_ufunc(P[:, 0, 0], P[:, 1, 1], P[:, 0, 1])] = i
                 out[:, i], innov[:, i], freq[:, i], r_out[:, i] = x[:, 0, 0], nu, x[:, 1, 0], R
             if self.scintillation:
-                for name in scint_names:
+                for name in MONITORS:
                     series[name][:, i0:i1] = sc[name][:, None]
                 if i1 >= self.n_window:
                     sc = self.scintillation_update(out[:, i1 - self.n_window : i1])
