@@ -45,16 +45,63 @@ _one_blas_pool_per_core()
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
+#: the console script itself: for tests that need Snakemake as a process of its own (signals, resource limits)
 SNAKEMAKE = str(BIN / "snakemake")
+#: the environment every Snakemake the suite starts gets on top of the suite's own
+SNAKEMAKE_ENV = {"PYTHONHASHSEED": "0"}
+#: what a fork of the warm Snakemake server has imported (Snakemake, its plugins and what a run imports
+#: later: reports, schemas, storage); never ``scintrack``, which each fork imports from the Snakefile's src
+WARM_PRELOAD = ("snakemake.cli", "snakemake.profiles", "snakemake.benchmark", "snakemake.storage", "snakemake.report.html_reporter",
+                "jsonschema", "fastjsonschema", "requests", "yte", "dpath", "smart_open", "nbformat", "docutils", "pygments", "jinja2")
+_WARM: dict[str, object] = {}
+
+
+def _warm_address() -> str:
+    """The address of this process's warm Snakemake server, started on first use ("" if it did not start).
+
+    One server per test process (each xdist worker), started with the environment the suite gives Snakemake
+    (:data:`SNAKEMAKE_ENV`); ``SCINTRACK_TEST_WARM_SNAKEMAKE=0`` turns it off.  See ``tests/warm_snakemake.py``.
+    """
+    if "addr" not in _WARM:
+        _WARM["addr"] = ""
+        if os.environ.get("SCINTRACK_TEST_WARM_SNAKEMAKE", "1") != "0":
+            import atexit
+
+            from scintrack.pipeline import job_server
+
+            launched = job_server.launch(str(REPO / "workflow" / "scripts"), preload=list(WARM_PRELOAD),
+                                         env=dict(os.environ, **SNAKEMAKE_ENV), forget=("scintrack",))
+            if launched is not None:
+                proc, folder, addr = launched
+                _WARM.update(addr=addr, proc=proc, folder=folder)
+                atexit.register(job_server.shutdown, proc, folder)
+    return str(_WARM["addr"])
+
+
+def warm_server_pid() -> int | None:
+    """The pid of this process's warm Snakemake server (None if it is not running)."""
+    _warm_address()
+    proc = _WARM.get("proc")
+    return proc.pid if proc is not None else None
+
+
+def snakemake_cmd() -> list[str]:
+    """The command that runs ``snakemake`` with the arguments appended to it: through the warm server.
+
+    ``tests/warm_snakemake.py`` hands the command to a fork of this process's warm Snakemake server (about a
+    second of imports less per start-up) and runs the plain ``snakemake`` itself when the server cannot serve
+    it (e.g. an environment other than :data:`SNAKEMAKE_ENV`), so what a test sees never depends on it.
+    """
+    return [sys.executable, str(REPO / "tests" / "warm_snakemake.py"), _warm_address(), SNAKEMAKE]
 
 
 def run_snakemake(workdir: Path, *args: str, timeout: float = 900, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
     """Run the repository's Snakefile with the smoke overlay in ``workdir`` (``env``: variables added to the environment)."""
     cmd = [
-        SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
+        *snakemake_cmd(), "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
         "--configfile", str(REPO / "config" / "smoke.yaml"), "--cores", "2", *args,
     ]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=dict(os.environ, PYTHONHASHSEED="0", **(env or {})))
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=dict(os.environ, **SNAKEMAKE_ENV, **(env or {})))
 
 
 @pytest.fixture(scope="session")
@@ -91,9 +138,9 @@ def experiment_jobs(experiments) -> dict[str, int]:
 
 def run_targets(workdir: Path, *targets: str, overlays=(), timeout: float = 600) -> subprocess.CompletedProcess:
     """Build ``targets`` (rule names or files; before --configfile, which takes every following word)."""
-    cmd = [SNAKEMAKE, *targets, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--cores", "2",
+    cmd = [*snakemake_cmd(), *targets, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--cores", "2",
            "--configfile", str(REPO / "config" / "smoke.yaml"), *map(str, overlays)]
-    env = dict(os.environ, PYTHONHASHSEED="0")
+    env = dict(os.environ, **SNAKEMAKE_ENV)
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
 
 

@@ -41,7 +41,7 @@ import numpy as np
 import pytest
 import xarray as xr
 import yaml
-from conftest import REPO, SNAKEMAKE, cores_per_worker
+from conftest import REPO, SNAKEMAKE, SNAKEMAKE_ENV, cores_per_worker, snakemake_cmd
 
 pytestmark = pytest.mark.pipeline
 
@@ -303,14 +303,17 @@ CASES = [
 def base(tmp_path_factory) -> Path:
     """A finished smoke workdir holding some outputs (the AR look-up table and its inputs)."""
     work = tmp_path_factory.mktemp("bad_input_base") / "work"
-    proc = subprocess.run(_snakemake(work, BASE_TARGET), capture_output=True, text=True, timeout=600)
+    proc = subprocess.run(_snakemake(work, BASE_TARGET), capture_output=True, text=True, timeout=600, env=dict(os.environ, **SNAKEMAKE_ENV))
     assert proc.returncode == 0, proc.stderr[-3000:]
     return work
 
 
-def _snakemake(work: Path, *targets: str, overlays: tuple[str, ...] = (), extra: tuple[str, ...] = (), cores: str = "1") -> list[str]:
+def _snakemake(work: Path, *targets: str, overlays: tuple[str, ...] = (), extra: tuple[str, ...] = (), cores: str = "1",
+               own_process: bool = False) -> list[str]:
+    """The command of a case (``own_process``: the plain console script, for a case whose limits or
+    capabilities, set before exec, must hold in Snakemake's own process; else through the warm server)."""
     dry = () if targets else ("-n",)
-    return [SNAKEMAKE, *targets, *dry, "-s", str(REPO / "Snakefile"), "--directory", str(work), "--cores", cores, *extra,
+    return [*([SNAKEMAKE] if own_process else snakemake_cmd()), *targets, *dry, "-s", str(REPO / "Snakefile"), "--directory", str(work), "--cores", cores, *extra,
             "--configfile", str(REPO / "config" / "smoke.yaml"), *overlays]
 
 
@@ -341,10 +344,10 @@ def _run(case: Case, base: Path, tmp: Path) -> tuple[subprocess.CompletedProcess
         if added:
             overlay = added
     before = {k: v for k, v in _snapshot(work).items() if k not in touched}
-    env = dict(os.environ, PYTHONHASHSEED="0", **case.env)
+    env = dict(os.environ, **SNAKEMAKE_ENV, **case.env)
     overlays = (str(_write_overlay(tmp, overlay)),) if overlay is not None else ()
     if case.via == "snakemake":
-        cmd = _snakemake(work, *case.targets, overlays=overlays, extra=case.extra)
+        cmd = _snakemake(work, *case.targets, overlays=overlays, extra=case.extra, own_process=case.preexec is not None)
     elif case.via == "repro":
         cmd = [sys.executable, str(REPO / "repro.py"), "run", "-n", *case.extra, *(("--configfile", *overlays) if overlays else ())]
     elif case.via == "main_yaml":  # a copy of the repository whose config/config.yaml is broken
@@ -359,7 +362,7 @@ def _run(case: Case, base: Path, tmp: Path) -> tuple[subprocess.CompletedProcess
         lines = cfg.read_text().splitlines()
         lines.insert(10, "tracking: {cn0_dbhz: [1")
         cfg.write_text("\n".join(lines) + "\n")
-        cmd = [SNAKEMAKE, "-n", "-s", str(repo / "Snakefile"), "--directory", str(work), "--cores", "1"]
+        cmd = [*snakemake_cmd(), "-n", "-s", str(repo / "Snakefile"), "--directory", str(work), "--cores", "1"]
     elif case.via == "reader":
         config = [str(REPO / "config" / "config.yaml"), str(REPO / "config" / "smoke.yaml"), *overlays]
         code = ("from scintrack import runlog\nrunlog.setup(None, 'case')\n"

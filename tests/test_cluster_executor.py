@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import REPO, SNAKEMAKE
+from conftest import REPO, SNAKEMAKE_ENV, snakemake_cmd
 
 from scintrack.config import load_config
 from scintrack.io import content_hash, open_dataset
@@ -52,9 +52,9 @@ COPIED = [Path("results/experiments") / EXPERIMENT / f"{s}.nc" for s in SCENARIO
 
 def snakemake(workdir: Path, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
     """Build TARGETS in ``workdir`` with the smoke overlay (--configfile last: it takes every following word)."""
-    cmd = [SNAKEMAKE, *TARGETS, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), *args,
+    cmd = [*snakemake_cmd(), *TARGETS, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), *args,
            "--configfile", str(REPO / "config" / "smoke.yaml")]
-    env = dict(os.environ, PYTHONHASHSEED="0")
+    env = dict(os.environ, **SNAKEMAKE_ENV)
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
 
 

@@ -232,3 +232,44 @@ def test_server_loads_the_cached_kernels_and_compiles_none(tmp_path, monkeypatch
         assert got == {"ppid": proc.pid, "cached": 1, "cold": 0}
     finally:
         job_server.shutdown(proc, folder)
+
+
+# --- the suite's warm Snakemake server (conftest.snakemake_cmd, tests/warm_snakemake.py) ------------------
+
+PROBE = textwrap.dedent(
+    """\
+    #!{python}
+    import json, os, sys
+    print(json.dumps({{"ppid": os.getppid(), "argv": sys.argv[1:], "cwd": os.getcwd(), "value": os.environ.get("T_VALUE"),
+                      "snakemake": "snakemake.cli" in sys.modules, "scintrack": sorted(m for m in sys.modules if m.startswith("scintrack")),
+                      "client": [m for m in sys.modules if "job_client" in m]}}))
+    sys.exit(int(os.environ.get("T_CODE", "0")))
+    """
+)
+
+
+@pytest.mark.parametrize("hash_seed", ["0", "1"])
+def test_warm_snakemake_command_runs_in_a_fork_or_as_itself(tmp_path, hash_seed):
+    """The command the suite starts Snakemake with: a fork of the warm server (Snakemake preloaded, no
+    scintrack module inherited, the client's arguments, cwd, environment and exit status) when the
+    import-time environment matches the server's; the plain program, exec'd, when it does not."""
+    from conftest import SNAKEMAKE_ENV, snakemake_cmd, warm_server_pid
+
+    cmd = snakemake_cmd()
+    server_pid = warm_server_pid()
+    if server_pid is None:
+        pytest.skip("no warm Snakemake server in this process (SCINTRACK_TEST_WARM_SNAKEMAKE=0 or more than one thread)")
+    probe = tmp_path / "probe"
+    probe.write_text(PROBE.format(python=sys.executable))
+    probe.chmod(0o755)
+    env = dict(os.environ, **SNAKEMAKE_ENV, T_VALUE="v", T_CODE="4")
+    env["PYTHONHASHSEED"] = hash_seed
+    out = subprocess.run([*cmd[:-1], str(probe), "x", "y z"], capture_output=True, text=True, timeout=60, env=env, cwd=tmp_path)
+    assert out.returncode == 4, out.stderr
+    seen = json.loads(out.stdout)
+    assert (seen["argv"], seen["cwd"], seen["value"]) == (["x", "y z"], str(tmp_path), "v")
+    assert seen["client"] == []  # the hand-over left nothing of itself in the program
+    if hash_seed == SNAKEMAKE_ENV["PYTHONHASHSEED"]:
+        assert seen["ppid"] == server_pid and seen["snakemake"] and seen["scintrack"] == []
+    else:  # refused: the client became the program (its parent is this test process)
+        assert seen["ppid"] == os.getpid() and not seen["snakemake"]

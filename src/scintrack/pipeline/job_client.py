@@ -95,13 +95,16 @@ def _exit_like(status: dict) -> None:
     os._exit(int(status.get("code", 1)))
 
 
-def delegate(threads: int = 1) -> None:
+def delegate(threads: int = 1, addr: str | None = None) -> None:
     """Run this script in a fork of the run's job server and exit with its status; return if there is none.
 
     ``threads``: the job's ``threads`` (a job with more than one keeps its own
-    process: the server's thread pools are sized for one).
+    process: the server's thread pools are sized for one).  ``addr``: the
+    server's address (default ``$SCINTRACK_JOB_SERVER_ADDR``; the test suite's
+    warm Snakemake server passes its own, so that the variable never reaches
+    the workflow it runs).
     """
-    addr = os.environ.get(ADDR_ENV)
+    addr = os.environ.get(ADDR_ENV) if addr is None else addr
     if IN_CHILD or not addr or int(threads) != 1:
         return
     host, _, path = addr.partition("|")

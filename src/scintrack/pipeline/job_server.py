@@ -171,9 +171,10 @@ def _threads() -> int:
 class Server:
     """The accept/fork/reap loop (one thread)."""
 
-    def __init__(self, folder: Path, parent: int):
+    def __init__(self, folder: Path, parent: int, forget: tuple[str, ...] = ()):
         self.folder = folder
         self.parent = parent
+        self.forget = forget  # packages each child drops from sys.modules before its script runs (:func:`forget_packages`)
         self.path = str(folder / "socket")
         self.children: dict[int, tuple[socket.socket, int]] = {}  # fork pid -> (its connection, its job's pid)
         self.stopping = False
@@ -294,6 +295,7 @@ class Server:
             os.environ.update(request["env"])
             sys.argv = list(request["argv"])
             job_client.IN_CHILD = True
+            forget_packages(self.forget)
             _watch_job_process(conn)
             code = _run_script(sys.argv[0])
         except BaseException:  # noqa: BLE001 - the child must end here whatever happens
@@ -346,6 +348,19 @@ class Server:
             os.unlink(self.path)
         except OSError:
             pass
+
+
+def forget_packages(packages: tuple[str, ...]) -> None:
+    """Drop ``packages`` and their submodules from ``sys.modules``, so that the script imports them afresh.
+
+    For a server whose children run a program that puts its own copy of a
+    package first on ``sys.path`` (the test suite's warm Snakemake server: a
+    Snakefile imports ``scintrack`` from the ``src`` beside it, which may be an
+    edited copy of the repository).  The server itself imported the package
+    to run; its children must not reuse that copy.
+    """
+    for name in [m for m in sys.modules if any(m == p or m.startswith(p + ".") for p in packages)]:
+        del sys.modules[name]
 
 
 def _watch_job_process(conn: socket.socket) -> None:
@@ -411,6 +426,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--ready-fd", type=int)
     ap.add_argument("--scripts", required=True, help="the workflow's scripts folder (their imports are preloaded)")
     ap.add_argument("--preload", help="comma-separated modules to import instead of PRELOAD and the scripts' imports (tests)")
+    ap.add_argument("--forget", default="", help="comma-separated packages each child drops from sys.modules (forget_packages)")
     args = ap.parse_args(argv)
     if os.getppid() != args.parent:
         return
@@ -428,7 +444,7 @@ def main(argv: list[str] | None = None) -> None:
         if args.ready_fd is not None:
             os.write(args.ready_fd, (msg + "\n").encode())
         return
-    Server(Path(args.folder), args.parent).serve(args.ready_fd, f"{time.process_time() - t0:.2f} CPU-s of imports, {kernels} cached kernels loaded")
+    Server(Path(args.folder), args.parent, tuple(p for p in args.forget.split(",") if p)).serve(args.ready_fd, f"{time.process_time() - t0:.2f} CPU-s of imports, {kernels} cached kernels loaded")
 
 
 # --- the Snakemake side ----------------------------------------------------------------------
@@ -468,19 +484,24 @@ def start(workflow, scripts: str, timeout_s: float = 120.0) -> str | None:
     return addr
 
 
-def launch(scripts: str, timeout_s: float = 120.0, preload: list[str] | None = None) -> tuple[subprocess.Popen, Path, str] | None:
+def launch(scripts: str, timeout_s: float = 120.0, preload: list[str] | None = None, env: dict[str, str] | None = None,
+           forget: tuple[str, ...] = ()) -> tuple[subprocess.Popen, Path, str] | None:
     """Start a server (child of this process) and wait until it serves: ``(process, folder, address)``, or None if it failed.
 
-    ``preload``: modules to import instead of :data:`PRELOAD` and the scripts' imports (the tests' light server).
+    ``preload``: modules to import instead of :data:`PRELOAD` and the scripts' imports (the tests' servers).
+    ``env``: the server's environment (default: this process's, with thread pools of one thread, as
+    Snakemake sets them for a ``threads: 1`` job); only clients whose import-time variables equal it are
+    served.  ``forget``: packages the children import afresh (:func:`forget_packages`).
     """
     folder = Path(tempfile.mkdtemp(prefix="scintrack-jobs-"))
-    # thread pools of one thread, as Snakemake sets them for a ``threads: 1`` job
-    env = {**os.environ, **dict.fromkeys(job_client.THREAD_POOL_VARS, "1")}
+    if env is None:
+        env = {**os.environ, **dict.fromkeys(job_client.THREAD_POOL_VARS, "1")}
     read_fd, write_fd = os.pipe()
     log = open(folder / "server.log", "ab")
     proc = subprocess.Popen(
         [sys.executable, "-m", "scintrack.pipeline.job_server", "--folder", str(folder), "--parent", str(os.getpid()),
-         "--ready-fd", str(write_fd), "--scripts", scripts, *(["--preload", ",".join(preload)] if preload is not None else [])],
+         "--ready-fd", str(write_fd), "--scripts", scripts, *(["--preload", ",".join(preload)] if preload is not None else []),
+         *(["--forget", ",".join(forget)] if forget else [])],
         env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=log, pass_fds=(write_fd,), close_fds=True,
     )
     os.close(write_fd)
