@@ -182,3 +182,32 @@ def test_channel_result_does_not_depend_on_the_trial_batch(run):
     results = [channel_result(ds, 1, prm, RINEX, trials=3, trial_batch=batch) for batch in (3, 2)]
     for name in results[0].data_vars:
         np.testing.assert_array_equal(results[0][name].values, results[1][name].values, err_msg=name)
+
+
+def test_bit_prediction_file_gives_the_channels_own_prediction_and_result(run, tmp_path):
+    """The rule zhao_bit_prediction's file (every satellite, written and read back as NetCDF) holds each channel's
+    upload-robust prediction, the same arrays and fields; a channel given it gives the same bits as one that
+    computes its own; a file made for another span is refused."""
+    from scintrack.experiments import gps_bit_prediction as gbp
+    from scintrack.io import open_dataset, write_netcdf
+
+    ds, k, prm, out, t20 = run
+    ephs, header = ephemeris.load(RINEX), ephemeris.read_header(RINEX)
+    path = tmp_path / "bit_prediction.nc"
+    write_netcdf(gbp.predictions(ds, ephs, header), path)
+    pred = open_dataset(path)
+    assert sorted(pred["prn"].values.tolist()) == sorted(ds["prn"].values.tolist())
+    for j in range(ds.sizes["sv"]):
+        own, read = gbp.channel_prediction(ds, j, ephs, header), gbp.prediction_of(pred, ds, j)
+        assert (read.prn, read.week, read.t0, read.n_alternatives) == (own.prn, own.week, own.t0, own.n_alternatives)
+        for name in ("bits", "mask"):
+            a, b = getattr(own, name), getattr(read, name)
+            assert a.dtype == b.dtype and np.array_equal(a, b), name
+        assert 0 < own.mask.sum() < own.mask.size  # some bits predicted, some not: the comparison is not vacuous
+    given = channel_result(ds, 1, prm, RINEX, trials=2, prediction=pred)
+    alone = channel_result(ds, 1, prm, RINEX, trials=2)
+    for name in alone.data_vars:
+        np.testing.assert_array_equal(given[name].values, alone[name].values, err_msg=name)
+    shifted = ds.assign_attrs(duration_s=float(ds.attrs["duration_s"]) + 60.0)
+    with pytest.raises(ValueError, match="rerun zhao_bit_prediction"):
+        gbp.prediction_of(pred, shifted, k)

@@ -57,7 +57,7 @@ def test_fresh_clone_plans_the_whole_dag_for_archive(tmp_path):
         **{r: len(config["real_traces"]["events"]) for r in ("trace_ar_models", "trace_static", "trace_dynamics")},
         **experiment_jobs(exps),
         "gps_jamming_dataset": 1, "gps_iq_recording": 1, "zhao_cn0_estimates": 1, "zhao_iq_spectrum": 1,
-        "zhao_channel": len(config["gps_jamming"]["prns"]), "zhao_receiver": 1,
+        "zhao_bit_prediction": 1, "zhao_channel": len(config["gps_jamming"]["prns"]), "zhao_receiver": 1,
         "zhao_cn0_sweep_point": len(config["zhao_receiver"]["cn0_sweep"]["cn0_dbhz"]),
         "susi_surrogate": len(config["susi_2014"]["traces"]), "susi_indices": len(params.susi_scenarios(config)),
         "vv_floors": len(config["floors"]["scenarios"]),

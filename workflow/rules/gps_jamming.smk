@@ -95,11 +95,32 @@ rule zhao_iq_spectrum:
 # --- the receiver: Costas PLL, MM Kalman filter with bit prediction, DLL, positioning
 
 
+rule zhao_bit_prediction:
+    """The upload-robust bit prediction of every satellite over the scenario (read by every channel and sweep point)."""
+    input:
+        dataset=GPS_DATASET,
+        ephemerides=EPHEMERIDES,
+    output:
+        ensure(paths.ZHAO_BIT_PREDICTION, non_empty=True),
+    params:
+        prediction=P.zhao_bit_prediction(config),
+        code=code("zhao_bit_prediction.py"),
+    log:
+        "logs/zhao_jamming/bit_prediction.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("zhao_bit_prediction"),
+        runtime=RES.runtime("zhao_bit_prediction"),
+    script:
+        "../scripts/zhao_bit_prediction.py"
+
+
 rule zhao_channel:
     """One satellite channel over all Monte Carlo trials: PLL, MM filter per bit-prior strategy, DLL."""
     input:
         dataset=GPS_DATASET,
         ephemerides=EPHEMERIDES,
+        prediction=paths.ZHAO_BIT_PREDICTION,
     output:
         ensure(paths.zhao_channel("{prn}"), non_empty=True),
     params:
@@ -143,6 +164,7 @@ rule zhao_cn0_sweep_point:
     input:
         dataset=GPS_DATASET,
         ephemerides=EPHEMERIDES,
+        prediction=paths.ZHAO_BIT_PREDICTION,
     output:
         ensure(paths.zhao_sweep_point("{cn0}"), non_empty=True),
     params:

@@ -12,7 +12,8 @@ sm = snakemake  # noqa: F821
 log = runlog.setup(sm.log[0], f"zhao_channel prn {sm.wildcards.prn}")
 params = dict(sm.params.receiver)
 ds = open_dataset(sm.input.dataset)
-out = channel_result(ds, int(sm.wildcards.prn), params, sm.input.ephemerides, log=log.info, trial_batch=int(sm.resources.trial_batch))
+out = channel_result(ds, int(sm.wildcards.prn), params, sm.input.ephemerides, log=log.info, trial_batch=int(sm.resources.trial_batch),
+                     prediction=open_dataset(sm.input.prediction))
 out.attrs.update(provenance(config=params, seed=params["seed"], inputs=[sm.input.dataset]))
 digest = write_netcdf(out, sm.output[0])
 log.info("wrote %s (content sha256 %s)", sm.output[0], digest)

@@ -31,6 +31,7 @@ import xarray as xr
 
 from ..signals.gps import ephemeris
 from ..signals.gps.orbit import C_LIGHT
+from . import gps_bit_prediction
 from . import gps_prompts as gp
 from .gps_receiver import channel, prior_sources
 
@@ -103,9 +104,11 @@ def _prediction_map(ds: xr.Dataset, k: int, ephs, header, robust=None) -> tuple[
 
 def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemerides_path: str | Path,
                    log: Callable[..., None] = lambda *a: None, cn0_jammed_dbhz: float | None = None, trials: int | None = None,
-                   trial_batch: int | None = None) -> xr.Dataset:
+                   trial_batch: int | None = None, prediction: xr.Dataset | None = None) -> xr.Dataset:
     """One satellite channel over ``trials`` (default ``receiver.trials``) Monte Carlo trials, ``trial_batch`` at a time
-    (default: all at once).  The batch bounds the memory only: every output is the same bits for any batch."""
+    (default: all at once).  The batch bounds the memory only: every output is the same bits for any batch.
+    ``prediction``: the dataset's bit predictions (:func:`.gps_bit_prediction.predictions`, the rule
+    ``zhao_bit_prediction``); by default this channel's is computed here (the same arrays)."""
     k = int(np.flatnonzero(ds["prn"].values == prn)[0])
     ephs, header = _navigation(ephemerides_path)
     rc = params["receiver"]
@@ -127,7 +130,8 @@ def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemeri
     example: dict[str, np.ndarray] = {}
     pseudo: dict[str, list[np.ndarray]] = {name: [] for name in names}
     t20 = jammed = None
-    sources = prior_sources(ds, k, rc["variants"], ephs, header, float(rc["prior_eps"]))
+    robust = None if prediction is None else gps_bit_prediction.prediction_of(prediction, ds, k)
+    sources = prior_sources(ds, k, rc["variants"], ephs, header, float(rc["prior_eps"]), robust=robust)
     for b0 in range(0, n_trials, batch):
         trials_b = list(range(b0, min(n_trials, b0 + batch)))
         out = channel(ds, k, params, trials_b, sources, cn0_jammed_dbhz=cn0_jammed_dbhz)

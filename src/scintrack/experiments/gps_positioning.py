@@ -95,17 +95,20 @@ def receiver_result(ds: xr.Dataset, channels: Sequence[xr.Dataset], params: Mapp
     return out
 
 
-def sweep_point(ds: xr.Dataset, params: Mapping[str, Any], cn0_dbhz: float, ephemerides_path, trial_batch: int | None = None) -> xr.Dataset:
+def sweep_point(ds: xr.Dataset, params: Mapping[str, Any], cn0_dbhz: float, ephemerides_path, trial_batch: int | None = None,
+                prediction: xr.Dataset | None = None) -> xr.Dataset:
     """Tracking metrics of every channel with the jammed C/N0 replaced by ``cn0_dbhz`` (``cn0_sweep.trials`` trials).
 
     Only the carrier-to-noise ratio after the onset changes (the jammer's J/S
     that gives it); geometry, clock, message and noise draws are the
-    scenario's, so the points of the sweep differ by the C/N0 alone.
+    scenario's, so the points of the sweep differ by the C/N0 alone.  ``prediction``: the dataset's bit
+    predictions (:func:`.gps_channel_result.channel_result`).
     """
     from .gps_channel_result import channel_result
 
     trials = int(params["receiver"]["cn0_sweep"]["trials"])
-    chans = [channel_result(ds, int(p), params, ephemerides_path, cn0_jammed_dbhz=cn0_dbhz, trials=trials, trial_batch=trial_batch)
+    chans = [channel_result(ds, int(p), params, ephemerides_path, cn0_jammed_dbhz=cn0_dbhz, trials=trials, trial_batch=trial_batch,
+                            prediction=prediction)
              for p in ds["prn"].values]
     out = xr.Dataset({key: (("tracker", "prn", "trial"), np.stack([c[key].values for c in chans], axis=1)) for key in METRICS},
                      coords={"tracker": chans[0]["tracker"].values, "prn": [int(c.attrs["prn"]) for c in chans], "trial": np.arange(trials)})

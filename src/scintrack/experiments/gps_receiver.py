@@ -47,6 +47,7 @@ from ..signals.gps import bit_prediction, ephemeris, message
 from ..signals.gps.correlator import NoiseStream
 from ..trackers.base import TrackerContext, TrackInit
 from ..trackers.registry import build
+from . import gps_bit_prediction
 from . import gps_prompts as gp
 from .metrics import unit_phasor
 
@@ -162,18 +163,24 @@ def run_mm(tracker, y20: np.ndarray, init: TrackInit, source: PriorSource):
 
 
 def prior_sources(ds: xr.Dataset, k: int, variants: Sequence[str], ephs: Sequence[ephemeris.Ephemeris], header: ephemeris.NavHeader,
-                  eps: float) -> dict[str, PriorSource]:
-    """The bit-prior source of each MM variant for satellite ``k`` (the upload-robust prediction is computed once)."""
+                  eps: float, robust: bit_prediction.RobustPrediction | None = None) -> dict[str, PriorSource]:
+    """The bit-prior source of each MM variant for satellite ``k`` (the upload-robust prediction is computed once).
+
+    ``robust``: that prediction, already computed (:mod:`.gps_bit_prediction`, the rule
+    ``zhao_bit_prediction``); by default it is computed here when a variant needs it.
+    """
     start = (gp.BIT_MS - int(ds["first_epoch_in_bit"].isel(sv=k))) % gp.BIT_MS
     n_bits = (ds.sizes["epoch"] - start) // gp.BIT_MS
     nav_idx, _ = _frame_layout(ds, k, start, n_bits)
-    robust = None
     history = np.zeros(0, dtype=np.int8)
     if any(v != "mm_none" for v in variants):
-        week, t0 = int(ds.attrs["gps_week"]), float(ds.attrs["t_start_sow"])
-        t_first = t0 + float(ds["nav_bit_time"].values[0])
-        robust = bit_prediction.robust_prediction(ephs, header, int(ds["prn"].values[k]), week, t_first + 1e-6, t0 + float(ds.attrs["duration_s"]) + 30.0)
+        if robust is None:
+            robust = gps_bit_prediction.channel_prediction(ds, k, ephs, header)
+        elif robust.prn != int(ds["prn"].values[k]):
+            raise ValueError(f"the bit prediction given is for PRN {robust.prn}, the channel is PRN {int(ds['prn'].values[k])}")
         history = ds["nav_bits"].isel(sv=k).values[: nav_idx[0]]
+    else:
+        robust = None
     return {v: PriorSource(v, robust, history, nav_idx, eps) for v in variants}
 
 

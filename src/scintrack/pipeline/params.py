@@ -266,6 +266,11 @@ def zhao_spectrum(config: Mapping[str, Any]) -> dict[str, Any]:
     return {"iq": gps_iq(config), "welch_nperseg": int(config["gps_jamming"]["welch_nperseg"])}
 
 
+def zhao_bit_prediction(config: Mapping[str, Any]) -> dict[str, Any]:
+    """The bit prediction depends on the dataset (its timing and satellites) and the navigation file only."""
+    return {"dataset": gps_dataset(config)}
+
+
 def zhao_receiver(config: Mapping[str, Any]) -> dict[str, Any]:
     """The receiver experiment: the dataset, the receiver settings and the specs of its two trackers.
 
@@ -300,6 +305,7 @@ def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
         out[paths.susi_indices_path(scenario)] = susi_indices(config, scenario)
     out[paths.ZHAO_CN0] = zhao_cn0(config)
     out[paths.ZHAO_SPECTRUM] = zhao_spectrum(config)
+    out[paths.ZHAO_BIT_PREDICTION] = zhao_bit_prediction(config)
     for prn in config["gps_jamming"]["prns"]:
         out[paths.zhao_channel(prn)] = zhao_receiver(config)
     out[paths.ZHAO_RECEIVER] = zhao_receiver(config)

@@ -116,6 +116,7 @@ ZHAO_RESULTS = "results/zhao_jamming"
 ZHAO_CN0 = f"{ZHAO_RESULTS}/cn0_estimates.nc"
 ZHAO_SPECTRUM = f"{ZHAO_RESULTS}/iq_spectrum.nc"
 ZHAO_RECEIVER = f"{ZHAO_RESULTS}/receiver.nc"
+ZHAO_BIT_PREDICTION = f"{ZHAO_RESULTS}/bit_prediction.nc"  # the upload-robust prediction of every satellite (rule zhao_bit_prediction)
 
 
 def zhao_sweep_point(cn0: float | str) -> str:

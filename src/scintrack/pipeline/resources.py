@@ -67,6 +67,7 @@ MEASURED: dict[str, tuple[float, float]] = {
     "zhao_iq_spectrum": (459.3, 3.1),
     "zhao_channel": (1359.8, 37.3),  # max_rss re-measured 2026-12-03 (full run, trial_batch 20, in a fork of the job server)
     "zhao_receiver": (374.1, 2.7),
+    "zhao_bit_prediction": (242.5, 2.7),  # 2026-12-03: one run of the job on the full dataset, its own process
     "zhao_cn0_sweep_point": (1353.5, 89.4),
 }
 
