@@ -38,6 +38,31 @@ def test_figures_are_byte_stable(tmp_path):
     assert b"CreationDate" not in first[0].read_bytes()
 
 
+def test_saving_draws_a_tight_layout_figure_once_per_file_with_matplotlibs_own_bytes(tmp_path, monkeypatch):
+    """``save_figure`` drops the placeholder engine ``tight_layout()`` leaves, which made matplotlib draw the
+    figure twice per file: one draw per file now, and the bytes matplotlib writes with the engine left in place."""
+    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+
+    from scintrack.figures.common import PDF_METADATA, PNG_METADATA, STYLE
+
+    diag = _diag()
+    kept = figs.fig01(diag)
+    assert isinstance(kept.get_layout_engine(), PlaceHolderLayoutEngine)  # what tight_layout() leaves
+    with plt.rc_context(STYLE):
+        kept.savefig(tmp_path / "kept.pdf", format="pdf", metadata=PDF_METADATA)
+        kept.savefig(tmp_path / "kept.png", format="png", metadata=PNG_METADATA)
+    plt.close(kept)
+    draws = []
+    original = Figure.draw
+    monkeypatch.setattr(Figure, "draw", lambda self, renderer: (draws.append(1), original(self, renderer))[1])
+    save_figure(figs.fig01(diag), [tmp_path / "saved.pdf", tmp_path / "saved.png"])
+    assert len(draws) == 2
+    for ext in ("pdf", "png"):
+        assert (tmp_path / f"saved.{ext}").read_bytes() == (tmp_path / f"kept.{ext}").read_bytes(), ext
+
+
 def test_every_figure_function_renders(tmp_path):
     diag = _diag()
     for fig in (figs.fig01(diag), figs.fig02(diag, 6), figs.fig03(diag), figs.fig04(diag, 6)):

@@ -49,7 +49,18 @@ def new_figure(nrows: int = 2, ncols: int = 1, *, figsize=(6.4, 6.0), **kwargs):
 
 
 def save_figure(fig, paths: Iterable[str | os.PathLike]) -> list[Path]:
-    """Save ``fig`` to every path (format from the suffix), atomically; close it."""
+    """Save ``fig`` to every path (format from the suffix), atomically; close it.
+
+    A figure laid out with ``tight_layout()`` keeps a placeholder layout engine, and matplotlib
+    draws a figure with any engine once more before each save, so that the engine can lay it out;
+    a placeholder lays out nothing, so it is dropped first: the same bytes (checked on every figure
+    of a smoke and a full run), one draw per file instead of two (the 36 smoke figures' saves took
+    13.5-14.6 -> 9.3-9.4 CPU-s; issue 14).
+    """
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+
+    if isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine):
+        fig.set_layout_engine(None)
     written = []
     plt = _pyplot()
     with plt.rc_context(STYLE):
