@@ -61,6 +61,18 @@ def test_figure_option_reruns_only_its_figures(smoke_run, tmp_path):
     assert jobs == {"ar_diagnostics": 1, "fig01": 1, "fig02": 1, "fig03": 1, "fig04": 1, "figure_checksums": 1, "all": 1}
 
 
+def test_zhao_trial_counts_rerun_only_what_reads_them(smoke_run, tmp_path, smoke_config):
+    """The channels' trials rerun the channels and what reads them, not the C/N0 sweep; the sweep's trials rerun the
+    sweep points and their products, not the channels; neither reruns the bit prediction (it reads neither)."""
+    rc = smoke_config["zhao_receiver"]
+    sweep = dry_run_with(smoke_run, tmp_path, {"zhao_receiver": {"cn0_sweep": {**rc["cn0_sweep"], "trials": int(rc["cn0_sweep"]["trials"]) + 1}}})
+    assert sweep == {"zhao_cn0_sweep_point": len(rc["cn0_sweep"]["cn0_dbhz"]), "zhao_sweep": 1, "zhao_table_cn0_sweep": 1,
+                     "figure_checksums": 1, "table_checksums": 1, "all": 1}
+    channels = dry_run_with(smoke_run, tmp_path, {"zhao_receiver": {"trials": int(rc["trials"]) + 1}})
+    assert channels["zhao_channel"] == len(smoke_config["gps_jamming"]["prns"]) and channels["zhao_receiver"] == 1
+    assert not {"zhao_cn0_sweep_point", "zhao_bit_prediction", "zhao_sweep", "zhao_table_cn0_sweep"} & set(channels)
+
+
 def test_pll_bandwidth_reruns_exactly_the_experiments_with_a_pll(smoke_run, smoke_config):
     # given on the command line as a nested value: typed as in a config file ('15.0' -> 15.0)
     jobs = planned(run_snakemake(smoke_run, "-n", "--config", 'tracking={"pll_bandwidth_hz": 15.0}'))

@@ -168,7 +168,7 @@ rule zhao_cn0_sweep_point:
     output:
         ensure(paths.zhao_sweep_point("{cn0}"), non_empty=True),
     params:
-        receiver=P.zhao_receiver(config),
+        receiver=P.zhao_sweep(config),  # the receiver settings a sweep point reads (no receiver.trials)
         code=code("zhao_sweep_point.py"),
     log:
         "logs/zhao_jamming/cn0_sweep_{cn0}.log",

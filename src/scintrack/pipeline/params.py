@@ -271,19 +271,30 @@ def zhao_bit_prediction(config: Mapping[str, Any]) -> dict[str, Any]:
     return {"dataset": gps_dataset(config)}
 
 
-def zhao_receiver(config: Mapping[str, Any]) -> dict[str, Any]:
-    """The receiver experiment: the dataset, the receiver settings and the specs of its two trackers.
-
-    ``trial_batch`` is left out: it bounds a job's memory and no result depends on it
-    (``tests/test_gps_receiver.py``), so the rules pass it as a resource and changing it reruns nothing.
-    """
-    rc = {k: v for k, v in config["zhao_receiver"].items() if k != "trial_batch"}
+def _zhao(config: Mapping[str, Any], leave_out: tuple[str, ...]) -> dict[str, Any]:
+    rc = {k: v for k, v in config["zhao_receiver"].items() if k not in ("trial_batch", *leave_out)}
     return {
         "dataset": gps_dataset(config),
         "seed": int(config["seed"]),
         "receiver": rc,
-        "trackers": tracker_specs(config, [rc["pll"], rc["mm"]]),
+        "trackers": tracker_specs(config, [config["zhao_receiver"]["pll"], config["zhao_receiver"]["mm"]]),
     }
+
+
+def zhao_receiver(config: Mapping[str, Any]) -> dict[str, Any]:
+    """The receiver experiment (channels and positions): the dataset, the receiver settings and the specs of its two trackers.
+
+    ``trial_batch`` is left out: it bounds a job's memory and no result depends on it
+    (``tests/test_gps_receiver.py``), so the rules pass it as a resource and changing it reruns nothing.
+    ``cn0_sweep`` is left out too: only the sweep points read it (:func:`zhao_sweep`).
+    """
+    return _zhao(config, ("cn0_sweep",))
+
+
+def zhao_sweep(config: Mapping[str, Any]) -> dict[str, Any]:
+    """One point of the jammed-C/N0 sweep: :func:`zhao_receiver` with ``cn0_sweep`` and without ``trials``
+    (a sweep point runs ``cn0_sweep.trials`` trials; ``receiver.trials`` is the channels' count)."""
+    return _zhao(config, ("trials",))
 
 
 def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
@@ -310,5 +321,5 @@ def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
         out[paths.zhao_channel(prn)] = zhao_receiver(config)
     out[paths.ZHAO_RECEIVER] = zhao_receiver(config)
     for cn0 in config["zhao_receiver"]["cn0_sweep"]["cn0_dbhz"]:
-        out[paths.zhao_sweep_point(cn0)] = zhao_receiver(config)
+        out[paths.zhao_sweep_point(cn0)] = zhao_sweep(config)
     return dict(sorted(out.items()))
