@@ -48,6 +48,10 @@ What makes it safe:
 ``SCINTRACK_JOB_SERVER=0`` turns it off (each job then starts its own
 interpreter, as Snakemake does by default); a cluster or any non-local
 executor never uses it.
+
+The test suite runs the ``snakemake`` command itself through a server of this
+kind that has imported Snakemake only (:func:`launch` with ``preload``,
+``env`` and ``forget``; ``tests/warm_snakemake.py``).
 """
 
 from __future__ import annotations
