@@ -59,12 +59,14 @@ _WARM: dict[str, object] = {}
 def _warm_address() -> str:
     """The address of this process's warm Snakemake server, started on first use ("" if it did not start).
 
-    One server per test process (each xdist worker), started with the environment the suite gives Snakemake
-    (:data:`SNAKEMAKE_ENV`); ``SCINTRACK_TEST_WARM_SNAKEMAKE=0`` turns it off.  See ``tests/warm_snakemake.py``.
+    One server per xdist worker, started with the environment the suite gives Snakemake (:data:`SNAKEMAKE_ENV`);
+    ``SCINTRACK_TEST_WARM_SNAKEMAKE=0`` turns it off.  Without xdist (``-n 0``) there is none: the linear-algebra
+    pools are then not sized to one thread (:func:`_one_blas_pool_per_core`), and a server with more than one
+    thread refuses to fork.  See ``tests/warm_snakemake.py``.
     """
     if "addr" not in _WARM:
         _WARM["addr"] = ""
-        if os.environ.get("SCINTRACK_TEST_WARM_SNAKEMAKE", "1") != "0":
+        if os.environ.get("SCINTRACK_TEST_WARM_SNAKEMAKE", "1") != "0" and int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0") or 0) > 0:
             import atexit
 
             from scintrack.pipeline import job_server

@@ -258,7 +258,7 @@ def test_warm_snakemake_command_runs_in_a_fork_or_as_itself(tmp_path, hash_seed)
     cmd = snakemake_cmd()
     server_pid = warm_server_pid()
     if server_pid is None:
-        pytest.skip("no warm Snakemake server in this process (SCINTRACK_TEST_WARM_SNAKEMAKE=0 or more than one thread)")
+        pytest.skip("no warm Snakemake server in this process (not under xdist, or SCINTRACK_TEST_WARM_SNAKEMAKE=0)")
     probe = tmp_path / "probe"
     probe.write_text(PROBE.format(python=sys.executable))
     probe.chmod(0o755)
