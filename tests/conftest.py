@@ -56,6 +56,11 @@ WARM_PRELOAD = ("snakemake.cli", "snakemake.profiles", "snakemake.benchmark", "s
 _WARM: dict[str, object] = {}
 
 
+def snakemake_env(**extra: str) -> dict[str, str]:
+    """The environment of a Snakemake the suite starts: the suite's own, :data:`SNAKEMAKE_ENV`, then ``extra``."""
+    return dict(os.environ, **SNAKEMAKE_ENV, **extra)
+
+
 def _warm_address() -> str:
     """The address of this process's warm Snakemake server, started on first use ("" if it did not start).
 
@@ -72,7 +77,7 @@ def _warm_address() -> str:
             from scintrack.pipeline import job_server
 
             launched = job_server.launch(str(REPO / "workflow" / "scripts"), preload=list(WARM_PRELOAD),
-                                         env=dict(os.environ, **SNAKEMAKE_ENV), forget=("scintrack",))
+                                         env=snakemake_env(), forget=("scintrack",))
             if launched is not None:
                 proc, folder, addr = launched
                 _WARM.update(addr=addr, proc=proc, folder=folder)
@@ -103,7 +108,7 @@ def run_snakemake(workdir: Path, *args: str, timeout: float = 900, env: dict[str
         *snakemake_cmd(), "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
         "--configfile", str(REPO / "config" / "smoke.yaml"), "--cores", "2", *args,
     ]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=dict(os.environ, **SNAKEMAKE_ENV, **(env or {})))
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=snakemake_env(**(env or {})))
 
 
 @pytest.fixture(scope="session")
@@ -142,7 +147,7 @@ def run_targets(workdir: Path, *targets: str, overlays=(), timeout: float = 600)
     """Build ``targets`` (rule names or files; before --configfile, which takes every following word)."""
     cmd = [*snakemake_cmd(), *targets, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--cores", "2",
            "--configfile", str(REPO / "config" / "smoke.yaml"), *map(str, overlays)]
-    env = dict(os.environ, **SNAKEMAKE_ENV)
+    env = snakemake_env()
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
 
 

@@ -41,7 +41,7 @@ import numpy as np
 import pytest
 import xarray as xr
 import yaml
-from conftest import REPO, SNAKEMAKE, SNAKEMAKE_ENV, cores_per_worker, snakemake_cmd
+from conftest import REPO, SNAKEMAKE, cores_per_worker, snakemake_cmd, snakemake_env
 
 pytestmark = pytest.mark.pipeline
 
@@ -303,7 +303,7 @@ CASES = [
 def base(tmp_path_factory) -> Path:
     """A finished smoke workdir holding some outputs (the AR look-up table and its inputs)."""
     work = tmp_path_factory.mktemp("bad_input_base") / "work"
-    proc = subprocess.run(_snakemake(work, BASE_TARGET), capture_output=True, text=True, timeout=600, env=dict(os.environ, **SNAKEMAKE_ENV))
+    proc = subprocess.run(_snakemake(work, BASE_TARGET), capture_output=True, text=True, timeout=600, env=snakemake_env())
     assert proc.returncode == 0, proc.stderr[-3000:]
     return work
 
@@ -344,7 +344,7 @@ def _run(case: Case, base: Path, tmp: Path) -> tuple[subprocess.CompletedProcess
         if added:
             overlay = added
     before = {k: v for k, v in _snapshot(work).items() if k not in touched}
-    env = dict(os.environ, **SNAKEMAKE_ENV, **case.env)
+    env = snakemake_env(**case.env)
     overlays = (str(_write_overlay(tmp, overlay)),) if overlay is not None else ()
     if case.via == "snakemake":
         cmd = _snakemake(work, *case.targets, overlays=overlays, extra=case.extra, own_process=case.preexec is not None)

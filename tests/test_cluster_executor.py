@@ -23,7 +23,6 @@ build of the same targets would only repeat it: issue 14, test-suite time).
 from __future__ import annotations
 
 import collections
-import os
 import shlex
 import shutil
 import subprocess
@@ -31,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import REPO, SNAKEMAKE_ENV, snakemake_cmd
+from conftest import REPO, snakemake_cmd, snakemake_env
 
 from scintrack.config import load_config
 from scintrack.io import content_hash, open_dataset
@@ -54,7 +53,7 @@ def snakemake(workdir: Path, *args: str, timeout: float = 300) -> subprocess.Com
     """Build TARGETS in ``workdir`` with the smoke overlay (--configfile last: it takes every following word)."""
     cmd = [*snakemake_cmd(), *TARGETS, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), *args,
            "--configfile", str(REPO / "config" / "smoke.yaml")]
-    env = dict(os.environ, **SNAKEMAKE_ENV)
+    env = snakemake_env()
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
 
 

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import REPO
+from conftest import REPO, snakemake_env
 
 from scintrack.pipeline import benchmark_sampling, job_client, job_server
 
@@ -262,7 +262,7 @@ def test_warm_snakemake_command_runs_in_a_fork_or_as_itself(tmp_path, hash_seed)
     probe = tmp_path / "probe"
     probe.write_text(PROBE.format(python=sys.executable))
     probe.chmod(0o755)
-    env = dict(os.environ, **SNAKEMAKE_ENV, T_VALUE="v", T_CODE="4")
+    env = snakemake_env(T_VALUE="v", T_CODE="4")
     env["PYTHONHASHSEED"] = hash_seed
     out = subprocess.run([*cmd[:-1], str(probe), "x", "y z"], capture_output=True, text=True, timeout=60, env=env, cwd=tmp_path)
     assert out.returncode == 4, out.stderr

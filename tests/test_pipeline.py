@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from conftest import REPO, SNAKEMAKE_ENV, run_snakemake, snakemake_cmd
+from conftest import REPO, run_snakemake, snakemake_cmd, snakemake_env
 
 from scintrack.checksums import read_checksums
 from scintrack.io import content_hash, open_dataset, sha256_file
@@ -108,7 +108,7 @@ def test_lint_reports_only_missing_conda_envs():
     import subprocess
 
     proc = subprocess.run([*snakemake_cmd(), "-s", str(REPO / "Snakefile"), "--lint"], capture_output=True, text=True, cwd=REPO,
-                          env=dict(os.environ, **SNAKEMAKE_ENV))
+                          env=snakemake_env())
     items = [line.strip() for line in (proc.stdout + proc.stderr).splitlines() if line.lstrip().startswith("* ")]
     assert items, "snakemake --lint printed no lint at all (expected the conda/container ones)"
     assert all("conda environment or container" in item for item in items), items

@@ -12,14 +12,13 @@ from __future__ import annotations
 
 import copy
 import json
-import os
 import re
 import shutil
 import subprocess
 
 import pytest
 import yaml
-from conftest import REPO, SNAKEMAKE_ENV, experiment_jobs, run_targets, snakemake_cmd
+from conftest import REPO, experiment_jobs, run_targets, snakemake_cmd, snakemake_env
 
 from scintrack.archive.build import ArchiveRefused, check_results_config
 from scintrack.archive.tarball import SUMS, sums_text
@@ -45,7 +44,7 @@ def test_fresh_clone_plans_the_whole_dag_for_archive(tmp_path):
             (clone / rel).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(REPO / rel, clone / rel)
     cmd = [*snakemake_cmd(), "-s", str(clone / "Snakefile"), "--directory", str(clone), "--cores", "2", "-n", "archive"]
-    archive = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=dict(os.environ, **SNAKEMAKE_ENV))
+    archive = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=snakemake_env())
     assert archive.returncode == 0, archive.stderr[-3000:]
     planned = _jobs(archive.stdout)
     config = load_config([clone / "config" / "config.yaml"])

@@ -4,14 +4,13 @@ and with wrong checksums), and the surrogate default's labelling."""
 from __future__ import annotations
 
 import hashlib
-import os
 import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
-from conftest import REPO, SNAKEMAKE_ENV, snakemake_cmd
+from conftest import REPO, snakemake_cmd, snakemake_env
 
 from scintrack.data.surrogate import surrogate_event, surrogate_params
 from scintrack.io import open_dataset
@@ -25,7 +24,7 @@ def _snakemake(workdir: Path, overlay: Path, *args: str) -> subprocess.Completed
     # targets before --configfile, which takes every following word as a file
     cmd = [*snakemake_cmd(), *args, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--cores", "2",
            "--configfile", str(REPO / "config" / "smoke.yaml"), str(overlay)]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=dict(os.environ, **SNAKEMAKE_ENV))
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=snakemake_env())
 
 
 def _write_traces(folder: Path) -> dict[str, str]:

@@ -29,7 +29,7 @@ import subprocess
 import time
 
 import pytest
-from conftest import REPO, SNAKEMAKE_ENV, run_snakemake, run_targets, snakemake_cmd
+from conftest import REPO, run_snakemake, run_targets, snakemake_cmd, snakemake_env
 
 from scintrack.io import content_hash, open_dataset
 from scintrack.products import products
@@ -50,7 +50,7 @@ def _detailed_summary(workdir) -> dict[str, tuple[str, list[str]]]:
     """output file -> (rule, declared input files of its job) of the smoke DAG in ``workdir`` (``--detailed-summary``)."""
     cmd = [*snakemake_cmd(), "-s", str(REPO / "Snakefile"), "--directory", str(workdir), "--configfile", str(REPO / "config" / "smoke.yaml"),
            "--detailed-summary"]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=dict(os.environ, **SNAKEMAKE_ENV))
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=snakemake_env())
     assert proc.returncode == 0, proc.stderr[-2000:]
     out: dict[str, tuple[str, list[str]]] = {}
     for line in proc.stdout.splitlines()[1:]:  # output_file, date, rule, log-file(s), input-file(s), ...

@@ -9,14 +9,13 @@ working directory, so the repository itself is never edited.
 
 from __future__ import annotations
 
-import os
 import re
 import shutil
 import subprocess
 
 import pytest
 import yaml
-from conftest import REPO, SNAKEMAKE_ENV, experiment_jobs, run_snakemake, snakemake_cmd
+from conftest import REPO, experiment_jobs, run_snakemake, snakemake_cmd, snakemake_env
 
 from scintrack.config import load_config
 
@@ -105,7 +104,7 @@ def dry_run_copy(root, workdir) -> dict[str, int]:
     the rules as params (code versions), so the input trigger is left out."""
     cmd = [*snakemake_cmd(), "-s", str(root / "Snakefile"), "--directory", str(workdir), "--configfile", str(root / "config" / "smoke.yaml"), "--cores", "2", "-n",
            "--rerun-triggers", "mtime", "params", "code", "software-env"]
-    return planned(subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=dict(os.environ, **SNAKEMAKE_ENV)))
+    return planned(subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=snakemake_env()))
 
 
 def test_comment_in_a_source_file_reruns_nothing_and_code_change_reruns_its_rules(smoke_run, code_copy):

@@ -41,10 +41,8 @@ def channel_prediction(ds: xr.Dataset, k: int, ephs, header) -> bit_prediction.R
 
 def predictions(ds: xr.Dataset, ephs, header) -> xr.Dataset:
     """:func:`channel_prediction` of every satellite of ``ds`` as one dataset (module docstring)."""
-    preds = [channel_prediction(ds, k, ephs, header) for k in range(ds.sizes["sv"])]
+    preds = [channel_prediction(ds, k, ephs, header) for k in range(ds.sizes["sv"])]  # one span: the same frames for all
     week, t_start, t_end = span(ds)
-    if len({(p.week, p.t0, len(p.bits)) for p in preds}) != 1:
-        raise ValueError("the satellites' predictions cover different frames")  # one span for all: cannot happen
     return xr.Dataset(
         {
             "bits": (("sv", "nav_bit"), np.stack([p.bits for p in preds]).astype(np.int8), {"long_name": "scheduled transmitted bit (no upload)"}),
@@ -59,9 +57,9 @@ def predictions(ds: xr.Dataset, ephs, header) -> xr.Dataset:
 
 def prediction_of(pred: xr.Dataset, ds: xr.Dataset, k: int) -> bit_prediction.RobustPrediction:
     """The prediction of satellite ``k`` of ``ds`` from :func:`predictions` (refused if made for another span or satellite set)."""
-    made_for = (int(pred.attrs["gps_week"]), float(pred.attrs["span_start_sow"]), float(pred.attrs["span_end_sow"]))
-    if made_for != span(ds):
-        raise ValueError(f"the bit prediction was computed for (week, start, end) = {made_for}, the dataset needs {span(ds)}; rerun zhao_bit_prediction")
+    made_for, needed = (int(pred.attrs["gps_week"]), float(pred.attrs["span_start_sow"]), float(pred.attrs["span_end_sow"])), span(ds)
+    if made_for != needed:
+        raise ValueError(f"the bit prediction was computed for (week, start, end) = {made_for}, the dataset needs {needed}; rerun zhao_bit_prediction")
     prn = int(ds["prn"].values[k])
     where = np.flatnonzero(pred["prn"].values == prn)
     if where.size != 1:

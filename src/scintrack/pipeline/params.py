@@ -277,7 +277,7 @@ def _zhao(config: Mapping[str, Any], leave_out: tuple[str, ...]) -> dict[str, An
         "dataset": gps_dataset(config),
         "seed": int(config["seed"]),
         "receiver": rc,
-        "trackers": tracker_specs(config, [config["zhao_receiver"]["pll"], config["zhao_receiver"]["mm"]]),
+        "trackers": tracker_specs(config, [rc["pll"], rc["mm"]]),  # never left out
     }
 
 
