@@ -145,7 +145,6 @@ from ..models.regions import region_of
 from ..progress import Progress
 from ..signals.correlator import noise_power
 from ..trackers.base import companion, dynamics_F, dynamics_Q
-from .metrics import wrap
 
 READINGS = ("R1", "R2")
 FLOORS = ("riccati_steady", "riccati_time_varying", "gls_quadratic", "gls_with_qd")
@@ -550,7 +549,7 @@ def floors_table(lut, scenarios: Sequence[tuple[float, float]], *, tracking: Map
         ar1 = scintillation_ar(lut, s4, tau0)
         unwrapped = csm_phase_series(s4, tau0, wrapped=False, n_epochs=n, ts=ts, seed=seed, realisations=realisations, nspa=nspa,
                                      warmup_s=warmup_s)
-        series = {"R1": unwrapped, "R2": wrap(unwrapped)}
+        series = {"R1": unwrapped, "R2": np.angle(np.exp(1j * unwrapped))}  # R2: the phase a receiver sees, as the scenarios make it
         for j, reading in enumerate(READINGS):
             x = series[reading]
             wmv[i, j] = float(np.mean(x.mean(axis=1) ** 2))

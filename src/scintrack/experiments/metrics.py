@@ -26,6 +26,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 Z95 = 1.959963984540054
@@ -48,11 +50,24 @@ def sin_cos(e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def wrap(e: np.ndarray) -> np.ndarray:
-    """``angle(exp(j e))`` in (-pi, pi], computed as ``arctan2(sin e, cos e)``: the same bits (numpy's
-    complex ``exp`` of ``j e`` is ``cos e + j sin e`` from the same libm calls, ``angle`` is ``arctan2``)
-    at about half the time, without complex temporaries (issue 14)."""
-    s, c = sin_cos(e)
-    out = np.arctan2(s, c)
+    """``e`` wrapped to (-pi, pi]: ``angle(exp(j e))``, computed by reducing whole cycles (compiled).
+
+    A value in [-pi, pi] is returned as it is (a loop in lock: most samples);
+    others lose the nearest whole number of cycles with a two-part 2 pi, to
+    the last place of the exact reduction (:func:`~scintrack.trackers.kernels.wrap_kernel`).
+    Until issue 14's sixteenth round this was ``arctan2(sin e, cos e)``, which
+    returns an in-range value only to within a unit in its last place and
+    cost ~40 ns per sample in libm, about a sixth of a tracking job: the
+    results differ from those by rounding only (``docs/performance.md``).
+    NaN and +-inf give NaN, as before.
+    """
+    from ..trackers.kernels import wrap_kernel
+
+    a = np.asarray(e, dtype=float)
+    flat = np.ascontiguousarray(a).reshape(-1)
+    out = np.empty_like(flat)
+    wrap_kernel(flat, out, math.pi)
+    out = out.reshape(a.shape)
     return out[()] if out.ndim == 0 else out
 
 

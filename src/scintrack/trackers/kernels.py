@@ -1,9 +1,11 @@
-"""Compiled (numba) loops that are not trackers: the cycle-slip counter and
-the unit phasors of :mod:`scintrack.experiments.metrics`, the median over
+"""Compiled (numba) loops that are not trackers: the cycle-slip counter,
+the unit phasors and the phase wrap of :mod:`scintrack.experiments.metrics`, the median over
 trials of the runner (:class:`scintrack.experiments.runner.TrialMedian`) and
 the scans of the divergence guards (:func:`scintrack.experiments.guards.detect`).
-Each gives what its numpy form gives, bit for bit, without the numpy form's
-full-size temporaries (``tests/test_speed_paths.py``).
+Each gives what its numpy form gives without the numpy form's full-size
+temporaries: bit for bit, except the wrap, which reduces by whole periods
+instead of going through sin, cos and atan2 and so agrees with
+``angle(exp(j e))`` to the last place (``tests/test_speed_paths.py``).
 
 The trackers' kernels live in their own modules (:mod:`.pll`, :mod:`.kf`,
 :mod:`.aekf_ar`) and are made of the building blocks in :mod:`.blocks`.
@@ -56,6 +58,50 @@ def sin_cos_kernel(e, s, c):
     for i in range(e.size):
         s[i] = math.sin(e[i])
         c[i] = math.cos(e[i])
+
+
+#: 2 pi split for an exact reduction (Cody-Waite): ``TWO_PI_HI`` has 33 significant bits, so ``k * TWO_PI_HI``
+#: is exact for |k| < 2**20 cycles; ``TWO_PI_LO = 2 pi - TWO_PI_HI`` to double precision.
+TWO_PI_HI = float.fromhex("0x1.921fb544p+2")
+TWO_PI_LO = 2.430840202602477e-10
+
+
+@njit(cache=True)
+def wrap_kernel(e, out, half):
+    """``out = e`` reduced to [-half, half] by whole periods ``2 half`` (1-D, contiguous; ``half`` = pi or pi/2 ...).
+
+    A value already in [-half, half] is copied as it is (the tracking errors of
+    a loop in lock: no arithmetic at all); any other finite value ``x`` becomes
+    ``x - k P`` with ``k`` the nearest whole number of periods ``P = 2 half``, the
+    product split in two parts (:data:`TWO_PI_HI`, :data:`TWO_PI_LO` scaled
+    by ``half / pi``, exact scalings by powers of two for the periods used) so
+    that the result is within a few units in the last place of the exact
+    reduction (one for |x| < 1000); from a million periods on, where that
+    split is no longer exact, ``atan2(sin, cos)`` with libm's exact argument
+    reduction; NaN and +-inf give NaN.  For ``half = pi`` this is
+    ``angle(exp(j e))`` up to that last place, which numpy's libm route
+    (``arctan2(sin e, cos e)``) also only gives to a last place or so.
+    """
+    scale = half / math.pi
+    hi = TWO_PI_HI * scale
+    lo = TWO_PI_LO * scale
+    period = 2.0 * half
+    for i in range(e.size):
+        x = e[i]
+        if -half <= x <= half:
+            out[i] = x
+        elif abs(x) < 1e6 * period:
+            k = math.floor(x / period + 0.5)
+            r = (x - k * hi) - k * lo
+            if r > half:
+                r = (r - hi) - lo
+            elif r < -half:
+                r = (r + hi) + lo
+            out[i] = r
+        elif math.isfinite(x):  # a million periods or more: libm's exact argument reduction
+            out[i] = math.atan2(math.sin(x / scale), math.cos(x / scale)) * scale
+        else:
+            out[i] = math.nan
 
 
 @njit(cache=True)
