@@ -398,3 +398,35 @@ def test_single_and_multi_shard_constraints_split_the_experiments_exactly():
     assert not re.fullmatch(single, "axb") and not re.fullmatch(multi, "c")  # names are escaped, not patterns
     none = params.experiment_names_regex({"experiments": {"a": {"shards": 1}}}, multi_shard=True)
     assert not any(re.fullmatch(none, s) for s in ("", "a", "(?!)"))
+
+
+def test_lut_lookups_are_xarrays_nearest_selection():
+    """scintillation_ar / lookup / nearest_point pick what ``lut.sel(..., method="nearest")`` picks, value for value."""
+    import xarray as xr
+
+    from scintrack.models.lut import AMPLITUDE_ORDER, TABLE_I_PHASE_ORDER, lookup, nearest_point, scintillation_ar
+    from scintrack.models.regions import region_of
+
+    rng = np.random.default_rng(5)
+    s4, tau0 = [0.1, 0.2, 0.5, 0.9, 1.0], [0.1, 0.4, 0.8]
+    shape = (len(s4), len(tau0), 2, 4)
+    lut = xr.Dataset(
+        {"coef": (("s4", "tau0", "component", "order", "lag"), rng.normal(size=shape + (4,))),
+         "const": (("s4", "tau0", "component", "order"), rng.normal(size=shape)),
+         "sigma2": (("order", "component", "tau0", "s4"), rng.uniform(size=shape[::-1]))},  # another axis order
+        coords={"s4": s4, "tau0": tau0, "component": ["amplitude", "phase"], "order": [1, 2, 3, 4], "lag": [1, 2, 3, 4]},
+    )
+    points = [(a, b) for a in (0.1, 0.15, 0.3, 0.35, 0.7, 0.95, 1.4) for b in (0.05, 0.25, 0.6, 0.4, 2.0)]
+    for a, b in points:
+        ref = lut.sel(s4=a, tau0=b, method="nearest")
+        assert nearest_point(lut, a, b) == (float(ref["s4"]), float(ref["tau0"]))
+        for comp, order in (("amplitude", AMPLITUDE_ORDER), ("phase", 2), ("phase", 4)):
+            one = ref.sel(component=comp, order=order)
+            got = lookup(lut, a, b, comp, order)
+            assert np.array_equal(got.coefs, one["coef"].values[:order]) and got.const == float(one["const"]) and got.sigma2 == float(one["sigma2"])
+        pair = scintillation_ar(lut, a, b)
+        p = TABLE_I_PHASE_ORDER[region_of(a)]
+        assert np.array_equal(pair.phase.coefs, ref.sel(component="phase", order=p)["coef"].values[:p])
+        assert (pair.s4, pair.tau0) == nearest_point(lut, a, b)
+    with pytest.raises(KeyError):
+        lookup(lut, 0.5, float("nan"), "phase", 1)

@@ -194,8 +194,24 @@ LOOKUP_TOL_TAU0 = 0.01
 
 def nearest_point(lut: xr.Dataset, s4: float, tau0: float) -> tuple[float, float]:
     """The grid point (S4, tau0) of the table (or of :func:`grid_of`) nearest to (s4, tau0)."""
-    point = lut.sel(s4=s4, tau0=tau0, method="nearest")
-    return float(point["s4"].values), float(point["tau0"].values)
+    i, j = _nearest_indices(lut, s4, tau0)
+    return float(lut["s4"].values[i]), float(lut["tau0"].values[j])
+
+
+def _nearest_indices(lut: xr.Dataset, s4: float, tau0: float) -> tuple[int, int]:
+    """Positions of the nearest grid S4 and tau0: the pandas look-up behind ``lut.sel(..., method="nearest")``.
+
+    Called directly, once per model pair, without building selected
+    sub-datasets (xarray's ``sel`` took 3-5 ms a call and a pair made three,
+    twice over: an adaptive AEKF-AR builds ten pairs; issue 14).  Ties are
+    broken as pandas breaks them; a value with no nearest point (NaN) raises
+    ``KeyError`` as ``sel`` does.
+    """
+    i = int(lut.indexes["s4"].get_indexer([s4], method="nearest")[0])
+    j = int(lut.indexes["tau0"].get_indexer([tau0], method="nearest")[0])
+    if i < 0 or j < 0:
+        raise KeyError(f"no grid point nearest to S4 = {s4!r}, tau0 = {tau0!r}")
+    return i, j
 
 
 def grid_of(s4: Sequence[float], tau0: Sequence[float]) -> xr.Dataset:
@@ -210,12 +226,18 @@ def within_tolerance(requested: tuple[float, float], used: tuple[float, float]) 
 
 def lookup(lut: xr.Dataset, s4: float, tau0: float, component: str, order: int) -> ArModel:
     """AR(``order``) model of ``component`` at the grid point nearest to (s4, tau0)."""
-    point = lut.sel(s4=s4, tau0=tau0, method="nearest").sel(component=component, order=order)
-    return ArModel(
-        coefs=point["coef"].values[:order].copy(),
-        const=float(point["const"].values),
-        sigma2=float(point["sigma2"].values),
-    )
+    return _model_at(lut, *_nearest_indices(lut, s4, tau0), component, order)
+
+
+def _model_at(lut: xr.Dataset, i: int, j: int, component: str, order: int) -> ArModel:
+    """AR(``order``) model of ``component`` at grid position (``i``, ``j``) of (S4, tau0)."""
+    at = {"s4": i, "tau0": j, "component": lut.indexes["component"].get_loc(component), "order": lut.indexes["order"].get_loc(order)}
+
+    def value(name: str) -> np.ndarray:
+        var = lut[name]
+        return var.values[tuple(at.get(dim, slice(None)) for dim in var.dims)]
+
+    return ArModel(coefs=value("coef")[:order].copy(), const=float(value("const")), sigma2=float(value("sigma2")))
 
 
 def scintillation_ar(lut: xr.Dataset, s4: float, tau0: float, phase_order: int | None = None) -> ScintillationAR:
@@ -224,9 +246,10 @@ def scintillation_ar(lut: xr.Dataset, s4: float, tau0: float, phase_order: int |
     ``p`` follows Table I for the region of ``s4`` unless ``phase_order`` is given.
     """
     p = phase_order or TABLE_I_PHASE_ORDER[region_of(s4)]
-    grid_s4, grid_tau0 = nearest_point(lut, s4, tau0)
+    i, j = _nearest_indices(lut, s4, tau0)
+    grid_s4, grid_tau0 = float(lut["s4"].values[i]), float(lut["tau0"].values[j])
     return ScintillationAR(
-        phase=lookup(lut, s4, tau0, "phase", p),
-        amplitude=lookup(lut, s4, tau0, "amplitude", AMPLITUDE_ORDER),
+        phase=_model_at(lut, i, j, "phase", p),
+        amplitude=_model_at(lut, i, j, "amplitude", AMPLITUDE_ORDER),
         s4=grid_s4, tau0=grid_tau0, label=f"S4={grid_s4:g},tau0={grid_tau0:g},AR({p})/AR(3)",
     )
