@@ -26,8 +26,6 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 Z95 = 1.959963984540054
@@ -66,7 +64,7 @@ def wrap(e: np.ndarray) -> np.ndarray:
     a = np.asarray(e, dtype=float)
     flat = np.ascontiguousarray(a).reshape(-1)
     out = np.empty_like(flat)
-    wrap_kernel(flat, out, math.pi)
+    wrap_kernel(flat, out)
     out = out.reshape(a.shape)
     return out[()] if out.ndim == 0 else out
 

@@ -352,7 +352,7 @@ def run_shard(
     prog = Progress(nt * n_tr * n_epochs, unit="filter-epochs", log=progress, label=f"{scenario_name} ({n_tr} trials)")
     first = None  # the first batch's truths: the example trial and the scenario's profile
     # Each tracker is built once and runs every batch (a tracker holds its settings, no run state): a build
-    # looks its AR models up in the table through xarray, ~5-15 ms a model (issue 14, sixteenth round).
+    # may look AR models up in the table, ten pairs for an adaptive AEKF-AR (issue 14, sixteenth round).
     trackers = [registry.build(name, tracker_specs[name], context) for name in tracker_names]
     for lo, hi in trial_batches(n_tr, n_epochs, batch_trial_epochs):
         real = simulate(scenario_name, scenario, tracking, seed=seed, ts=ts, nspa=nspa, warmup_s=warmup_s, trials=trials[lo:hi], lut=lut, trace=trace)

@@ -4,7 +4,7 @@ trials of the runner (:class:`scintrack.experiments.runner.TrialMedian`) and
 the scans of the divergence guards (:func:`scintrack.experiments.guards.detect`).
 Each gives what its numpy form gives without the numpy form's full-size
 temporaries: bit for bit, except the wrap, which reduces by whole periods
-instead of going through sin, cos and atan2 and so agrees with
+instead of going through sin, cos and atan2, and so agrees with
 ``angle(exp(j e))`` to the last place (``tests/test_speed_paths.py``).
 
 The trackers' kernels live in their own modules (:mod:`.pll`, :mod:`.kf`,
@@ -67,39 +67,35 @@ TWO_PI_LO = 2.430840202602477e-10
 
 
 @njit(cache=True)
-def wrap_kernel(e, out, half):
-    """``out = e`` reduced to [-half, half] by whole periods ``2 half`` (1-D, contiguous; ``half`` = pi or pi/2 ...).
+def wrap_kernel(e, out):
+    """``out = e`` wrapped to [-pi, pi] by whole cycles (1-D, contiguous).
 
-    A value already in [-half, half] is copied as it is (the tracking errors of
-    a loop in lock: no arithmetic at all); any other finite value ``x`` becomes
-    ``x - k P`` with ``k`` the nearest whole number of periods ``P = 2 half``, the
-    product split in two parts (:data:`TWO_PI_HI`, :data:`TWO_PI_LO` scaled
-    by ``half / pi``, exact scalings by powers of two for the periods used) so
-    that the result is within a few units in the last place of the exact
-    reduction (one for |x| < 1000); from a million periods on, where that
-    split is no longer exact, ``atan2(sin, cos)`` with libm's exact argument
-    reduction; NaN and +-inf give NaN.  For ``half = pi`` this is
-    ``angle(exp(j e))`` up to that last place, which numpy's libm route
-    (``arctan2(sin e, cos e)``) also only gives to a last place or so.
+    A value already in [-pi, pi] is copied as it is (the tracking errors of a
+    loop in lock: no arithmetic at all); any other finite value ``x`` becomes
+    ``x - 2 pi k`` with ``k`` the nearest whole number of cycles, the product
+    split in two parts (:data:`TWO_PI_HI`, :data:`TWO_PI_LO`) so that the
+    result is within a few units in the last place of the exact reduction
+    (one for |x| < 1000); from a million cycles on, where that split is no
+    longer exact, ``atan2(sin x, cos x)`` with libm's exact argument
+    reduction; NaN and +-inf give NaN.  This is ``angle(exp(j e))`` up to
+    that last place, which numpy's libm route (``arctan2(sin e, cos e)``)
+    also only gives to a last place or so.
     """
-    scale = half / math.pi
-    hi = TWO_PI_HI * scale
-    lo = TWO_PI_LO * scale
-    period = 2.0 * half
+    two_pi = 2.0 * math.pi
     for i in range(e.size):
         x = e[i]
-        if -half <= x <= half:
+        if -math.pi <= x <= math.pi:
             out[i] = x
-        elif abs(x) < 1e6 * period:
-            k = math.floor(x / period + 0.5)
-            r = (x - k * hi) - k * lo
-            if r > half:
-                r = (r - hi) - lo
-            elif r < -half:
-                r = (r + hi) + lo
+        elif abs(x) < 1e6 * two_pi:
+            k = math.floor(x / two_pi + 0.5)
+            r = (x - k * TWO_PI_HI) - k * TWO_PI_LO
+            if r > math.pi:
+                r = (r - TWO_PI_HI) - TWO_PI_LO
+            elif r < -math.pi:
+                r = (r + TWO_PI_HI) + TWO_PI_LO
             out[i] = r
-        elif math.isfinite(x):  # a million periods or more: libm's exact argument reduction
-            out[i] = math.atan2(math.sin(x / scale), math.cos(x / scale)) * scale
+        elif math.isfinite(x):  # a million cycles or more: libm's exact argument reduction
+            out[i] = math.atan2(math.sin(x), math.cos(x))
         else:
             out[i] = math.nan
 
