@@ -234,6 +234,46 @@ def test_server_loads_the_cached_kernels_and_compiles_none(tmp_path, monkeypatch
         job_server.shutdown(proc, folder)
 
 
+def test_a_functions_ufunc_form_has_its_own_cache_and_is_never_loaded_as_its_njit_overload(tmp_path):
+    """Both compiled forms of one block in one numba cache, then the server's kernel loading and a call from Python.
+
+    The njit and the vectorize form of ``_atan_variance`` used to share a cache index (numba names it after the
+    function), with keys of the same argument types; ``load_cached_kernels`` loaded the ufunc's element kernel as
+    an overload of the njit function and the call crashed the process (SIGSEGV).  Each form now has its own
+    index, and the loader takes argument-tuple keys only.
+    """
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(REPO / "src"), "OPENBLAS_NUM_THREADS": "1"}
+    fill = "import numpy as np; from scintrack.trackers import blocks; blocks.atan_variance_ufunc(np.array([1e4]), np.array([0.01])); blocks.atan_variance(1e4, 0.01)"
+    done = subprocess.run([sys.executable, "-c", fill], env=env, capture_output=True, text=True, timeout=180)
+    assert done.returncode == 0, done.stderr
+    use = textwrap.dedent("""
+        import json, pickle, glob, numpy as np
+        from scintrack.pipeline import job_server
+        from scintrack.trackers import blocks
+        loaded = job_server.load_cached_kernels(["scintrack.trackers.blocks"])
+        keys = {}
+        for idx in glob.glob(%r + "/**/blocks._atan_variance*.nbi", recursive=True):
+            with open(idx, "rb") as f:
+                pickle.load(f)
+                keys[idx.rsplit("/", 1)[1]] = sorted(type(k[0]).__name__ for k in pickle.loads(f.read())[1])
+        print(json.dumps({"loaded": loaded, "njit": float(blocks.atan_variance(1e4, 0.01)),
+                          "ufunc": float(blocks.atan_variance_ufunc(np.array([1e4]), np.array([0.01]))[0]), "keys": keys}))
+        """) % str(tmp_path / "cache")
+    out = subprocess.run([sys.executable, "-c", use], env=env, capture_output=True, text=True, timeout=180)
+    assert out.returncode == 0, (out.returncode, out.stderr[-2000:])  # -11: the element kernel called as the njit function
+    got = json.loads(out.stdout)
+    assert got["loaded"] >= 1 and got["njit"] == got["ufunc"] > 0
+    py = "py%d%d" % sys.version_info[:2]
+    assert got["keys"] == {f"blocks._atan_variance-{blocks_line()}.{py}.nbi": ["tuple"],
+                           f"blocks._atan_variance_ufunc-{blocks_line()}.{py}.nbi": ["Signature"]}, got["keys"]
+
+
+def blocks_line() -> int:
+    from scintrack.trackers import blocks
+
+    return blocks.atan_variance.py_func.__code__.co_firstlineno
+
+
 # --- the suite's warm Snakemake server (conftest.snakemake_cmd, tests/warm_snakemake.py) ------------------
 
 PROBE = textwrap.dedent(

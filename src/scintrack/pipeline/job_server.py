@@ -157,7 +157,9 @@ def load_cached_kernels(modules: list[str]) -> int:
             try:
                 cache, codegen = obj._cache, obj.targetctx.codegen()
                 for key in cache._cache_file._load_index():
-                    if key == cache._index_key(key[0], codegen):  # an entry for this code: compile() loads it
+                    # an entry of this dispatcher (its keys are argument-type tuples; a ufunc's element kernel, keyed
+                    # by a full signature, is not one of its overloads) for this code: compile() loads it
+                    if isinstance(key[0], tuple) and key == cache._index_key(key[0], codegen):
                         obj.compile(key[0])
                         loaded += 1
             except Exception:  # noqa: BLE001 - no disk cache (cache=False), or internals this does not know

@@ -82,7 +82,17 @@ _F8_3 = ["float64(float64, float64, float64)"]
 
 
 class _Ufunc:
-    """``numba.vectorize(signatures)(py)``, built on first call (keeps imports cheap)."""
+    """``numba.vectorize(signatures)(py)``, built on first call (keeps imports cheap).
+
+    The ufunc is built from a copy of ``py`` named ``<name>_ufunc``, so that its
+    entries live in a numba cache file of their own.  numba names a cache file
+    after the function's qualified name and first line, so ``njit(cache=True)``
+    and ``vectorize(cache=True)`` of the same function shared one index, in
+    which the ufunc's element kernel and the compiled function had the same
+    argument types; the job server's :func:`~scintrack.pipeline.job_server.load_cached_kernels`
+    then loaded the element kernel as the ``njit`` function's overload, and a
+    call from Python crashed (SIGSEGV, issue 14, sixteenth round).
+    """
 
     def __init__(self, py, signatures):
         self.py, self.signatures, self._ufunc = py, signatures, None
@@ -90,8 +100,19 @@ class _Ufunc:
 
     def __call__(self, *args):
         if self._ufunc is None:
-            self._ufunc = vectorize(self.signatures, cache=True)(self.py)
+            self._ufunc = vectorize(self.signatures, cache=True)(_renamed(self.py, "_ufunc"))
         return self._ufunc(*args)
+
+
+def _renamed(py, suffix: str):
+    """A copy of the function ``py`` (same code, globals, defaults) whose name and qualified name end in ``suffix``."""
+    import types as pytypes
+
+    f = pytypes.FunctionType(py.__code__, py.__globals__, py.__name__ + suffix, py.__defaults__, py.__closure__)
+    f.__qualname__ = py.__qualname__ + suffix
+    f.__module__ = py.__module__
+    f.__doc__ = py.__doc__
+    return f
 
 
 # --- eq. (12): discriminator variance ---------------------------------------
