@@ -263,7 +263,7 @@ def test_a_functions_ufunc_form_has_its_own_cache_and_is_never_loaded_as_its_nji
     assert out.returncode == 0, (out.returncode, out.stderr[-2000:])  # -11: the element kernel called as the njit function
     got = json.loads(out.stdout)
     assert got["loaded"] >= 1 and got["njit"] == got["ufunc"] > 0
-    py = "py%d%d" % sys.version_info[:2]
+    py = f"py{sys.version_info[0]}{sys.version_info[1]}"
     assert got["keys"] == {f"blocks._atan_variance-{blocks_line()}.{py}.nbi": ["tuple"],
                            f"blocks._atan_variance_ufunc-{blocks_line()}.{py}.nbi": ["Signature"]}, got["keys"]
 
