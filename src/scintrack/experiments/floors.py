@@ -144,6 +144,7 @@ from ..models.lut import TABLE_I_PHASE_ORDER, scintillation_ar
 from ..models.regions import region_of
 from ..progress import Progress
 from ..signals.correlator import noise_power
+from ..signals.csm import wrapped_phase
 from ..trackers.base import companion, dynamics_F, dynamics_Q
 
 READINGS = ("R1", "R2")
@@ -549,7 +550,7 @@ def floors_table(lut, scenarios: Sequence[tuple[float, float]], *, tracking: Map
         ar1 = scintillation_ar(lut, s4, tau0)
         unwrapped = csm_phase_series(s4, tau0, wrapped=False, n_epochs=n, ts=ts, seed=seed, realisations=realisations, nspa=nspa,
                                      warmup_s=warmup_s)
-        series = {"R1": unwrapped, "R2": np.angle(np.exp(1j * unwrapped))}  # R2: the phase a receiver sees, as the scenarios make it
+        series = {"R1": unwrapped, "R2": wrapped_phase(unwrapped)}  # R2: as the scenarios make it
         for j, reading in enumerate(READINGS):
             x = series[reading]
             wmv[i, j] = float(np.mean(x.mean(axis=1) ** 2))

@@ -55,7 +55,7 @@ import numpy as np
 from ..models.ar import ScintillationAR
 from ..models.lut import scintillation_ar
 from ..signals.correlator import complex_noise, noise_power, prompts
-from ..signals.csm import Segment, generate_csm, generate_csm_profile
+from ..signals.csm import Segment, generate_csm, generate_csm_profile, wrapped_phase
 from ..signals.dynamics import initial_phases, third_order_phase
 
 
@@ -203,9 +203,7 @@ def simulate(
         real, s4_t, tau0_t = generate_csm_profile(seed=seed, name=f"scenario/{name}/csm", trials=trials, n_epochs=n_epochs, ts=ts, segments=segs, nspa=nspa, warmup=warmup)
         rho, theta_s = real.polar()
     if scenario.get("csm_phase", "unwrapped") == "wrapped":
-        # the angle of the phasor, numpy's own route (not metrics.wrap, whose whole-cycle reduction differs by
-        # rounding): the trackers' input keeps its bits, and closed loops amplify any change (issue 14)
-        theta_s = np.angle(np.exp(1j * theta_s))
+        theta_s = wrapped_phase(theta_s)
     s2 = noise_power(cn0, ts, amp)
     noise = complex_noise(seed, f"scenario/{name}/noise", trials, n_epochs, s2)
     y = prompts(theta_d + theta_s, rho, noise, amp, out=noise)  # in place: no second (trials, epochs) complex array

@@ -51,10 +51,10 @@ def new_figure(nrows: int = 2, ncols: int = 1, *, figsize=(6.4, 6.0), **kwargs):
 def save_figure(fig, paths: Iterable[str | os.PathLike]) -> list[Path]:
     """Save ``fig`` to every path (format from the suffix), atomically; close it.
 
-    ``tight_layout()`` leaves a placeholder layout engine on the figure.  Before saving a figure
-    that has any engine, matplotlib draws it once more so that the engine can lay it out.  A
-    placeholder lays out nothing, so it is dropped here first.  Each file is then drawn once
-    instead of twice, and its bytes do not change (``tests/test_figures_tables.py``; issue 14).
+    ``tight_layout()`` leaves a placeholder layout engine on the figure.
+    matplotlib draws a figure that has any engine once more before saving it, for the engine.
+    A placeholder lays out nothing, so it is dropped here first.
+    Each file is then drawn once, not twice, with the same bytes (``tests/test_figures_tables.py``; issue 14).
     """
     from matplotlib.layout_engine import PlaceHolderLayoutEngine
 

@@ -109,6 +109,17 @@ def diffuse_field_acf(lag_s: np.ndarray, tau0: float) -> np.ndarray:
     return np.exp(-x) * (np.cos(x) + np.sin(x))
 
 
+def wrapped_phase(theta: np.ndarray) -> np.ndarray:
+    """The CSM phase as a receiver sees it (readings R2/R5 of the Vila-Valls simulation): ``angle(exp(j theta))``.
+
+    numpy's own route, kept as it is: this phase is the trackers' input, and a
+    closed loop turns any rounding change into a different run, so it is not
+    :func:`scintrack.experiments.metrics.wrap` (a whole-cycle reduction that
+    agrees to the last place only; issue 14).
+    """
+    return np.angle(np.exp(1j * np.asarray(theta)))
+
+
 @dataclass(frozen=True)
 class CsmRealisation:
     """Complex scintillation gain ``z`` with shape (trials, epochs)."""
