@@ -333,6 +333,58 @@ def test_unit_phasor_is_numpys_complex_exp_bit_for_bit():
     assert np.array_equal(np.signbit(unit_phasor(e[0, :2], -1.0).imag), np.signbit(old_minus[0, :2].imag))  # signed zeros too
 
 
+def _numpys_complex_product_uses_fma() -> bool:
+    """Whether numpy's complex multiply on this CPU rounds once per part (x86-64-v3 and later)."""
+    from fractions import Fraction
+
+    rng = np.random.default_rng(5)
+    a, b = rng.normal(size=64) + 1j * rng.normal(size=64), rng.normal(size=64) + 1j * rng.normal(size=64)
+    fused = [float(Fraction(x.real) * Fraction(y.real) + Fraction(-(x.imag * y.imag))) for x, y in zip(a, b)]
+    return np.array_equal((a * b).real, fused)
+
+
+@pytest.mark.parametrize("per, start", [(1, 0), (3, 2), (4, 0), (20, 7), (21, 0), (64, 3), (65, 0), (200, 13), (333, 1)])
+def test_derotated_sums_are_numpys_product_and_pairwise_sum(per, start):
+    """The lock detector's and the Costas PLL's block sums: numpy's expression on arrays of 256 KiB and more
+    (the product computed in the phasor's temporary), bit for bit on an FMA CPU, to rounding elsewhere."""
+    from scintrack.experiments.metrics import derotated_sums, unit_phasor
+
+    rng = np.random.default_rng(per)
+    n = 40 * per + start + 5 if per > 20 else 20_000
+    y = rng.normal(0.0, 3.0, (3, n)) + 1j * rng.normal(0.0, 3.0, (3, n))
+    phase = rng.normal(0.0, 30.0, (3, n))
+    y[1] = 0.0
+    nb = (n - start) // per
+    assert y.nbytes >= 256 * 1024 or per > 20
+    ref = (y[:, start:] * unit_phasor(phase[:, start:], -1.0))[:, : nb * per].reshape(3, nb, per).sum(axis=-1)
+    got = derotated_sums(y, phase, per, start)
+    assert got.shape == (3, nb) and got.dtype == complex
+    if _numpys_complex_product_uses_fma() and y[:, start:].nbytes >= 256 * 1024:
+        assert np.array_equal(got.view(np.uint64), ref.view(np.uint64))
+    else:  # small arrays: numpy's product into a new array rounds the imaginary part differently
+        assert np.allclose(got, ref, rtol=0.0, atol=1e-12 * per)
+    assert np.array_equal(derotated_sums(y, phase, per, start, nb - 1), got[:, : nb - 1])
+    with pytest.raises(ValueError, match="do not fit"):
+        derotated_sums(y, phase, per, start, nb + 1)
+    with pytest.raises(ValueError, match="one shape"):
+        derotated_sums(y, phase[:, 1:], per, start)
+
+
+def test_jamming_prompts_kernel_is_numpys_expression_bit_for_bit():
+    from scintrack.experiments import gps_prompts as gp
+    from scintrack.signals.gps.correlator import NoiseStream, gains
+
+    rng = np.random.default_rng(2)
+    n = 5000
+    phi = np.cumsum(rng.normal(size=n)) * 0.01
+    cn0 = np.where(np.arange(n) > n // 2, 15.0, 46.0)
+    bits = np.repeat(np.sign(rng.normal(size=n // 20)), 20)
+    y, noise, sigma = gp.prompts_1ms(NoiseStream(3, "test", 1.0), [0, 4, 9], 1, phi, cn0, bits, 46.0)
+    a, s = gains(cn0, gp.CODE_PERIOD_S, "fixed", 46.0)
+    ref = (a * bits * np.exp(1j * phi))[None, :] + s * (noise[..., 1] + 1j * noise[..., 4])
+    assert np.array_equal(y.view(np.uint64), ref.view(np.uint64)) and np.array_equal(sigma, s)
+
+
 def test_wrap_is_angle_of_exp_to_the_last_place_and_leaves_in_range_values_alone():
     """The whole-cycle reduction: in-range values untouched, the rest within a few ulps of the exact wrap."""
     from scintrack.experiments.metrics import wrap

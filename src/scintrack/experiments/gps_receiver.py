@@ -49,7 +49,7 @@ from ..trackers.base import TrackerContext, TrackInit
 from ..trackers.registry import build
 from . import gps_bit_prediction
 from . import gps_prompts as gp
-from .metrics import unit_phasor
+from .metrics import derotated_sums
 
 STREAM = "zhao_jamming/receiver"
 FRAME_BITS = 1500
@@ -228,7 +228,7 @@ def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[
         "true_level": bits[start : start + n_bits * gp.BIT_MS : gp.BIT_MS],
     }
     # PLL bit decisions (Costas: up to a global sign) for the clean-segment decoding check
-    rot = (y1 * unit_phasor(p_phase, -1.0))[:, start : start + n_bits * gp.BIT_MS].reshape(n_tr, n_bits, gp.BIT_MS).sum(axis=-1)
+    rot = derotated_sums(y1, p_phase, gp.BIT_MS, start, n_bits)
     out["pll_level"] = np.sign(rot.real).astype(np.int8)
     del y1, rot
     out["pll_code_error_chips"] = code_error(p_phase, p_freq)

@@ -78,6 +78,33 @@ def unit_phasor(e: np.ndarray, sign: float = 1.0) -> np.ndarray:
     return z
 
 
+def derotated_sums(y: np.ndarray, phase: np.ndarray, per: int, start: int = 0, count: int | None = None) -> np.ndarray:
+    """Sums of ``y exp(-j phase)`` over ``count`` consecutive blocks of ``per`` epochs from epoch ``start``: (trials, count).
+
+    ``y`` (complex) and ``phase`` (rad) are (trials, epochs); ``count`` defaults to every whole block.  The
+    values of ``(y * unit_phasor(phase, -1))[:, start:start + count per].reshape(trials, count, per).sum(-1)``
+    (the lock detector's and the Costas PLL's bit sums), bit for bit on a CPU with FMA (numpy's complex
+    product and pairwise sum, :func:`~scintrack.trackers.kernels.derotated_sums_kernel`), without that
+    form's (trials, epochs) temporaries (issue 14, seventeenth round).
+    """
+    from ..trackers.kernels import derotated_sums_kernel
+
+    y = np.asarray(y)
+    phase = np.asarray(phase, dtype=float)
+    if y.ndim != 2 or phase.shape != y.shape:
+        raise ValueError(f"y and phase must be (trials, epochs) arrays of one shape (got {y.shape} and {phase.shape})")
+    per, start = int(per), int(start)
+    if per < 1 or start < 0:
+        raise ValueError(f"per must be >= 1 and start >= 0 (got per={per}, start={start})")
+    available = max(y.shape[1] - start, 0) // per
+    count = available if count is None else int(count)
+    if not 0 <= count <= available:
+        raise ValueError(f"count = {count} blocks of {per} epochs from epoch {start} do not fit in {y.shape[1]} epochs")
+    out = np.empty((y.shape[0], count), dtype=complex)
+    derotated_sums_kernel(y.astype(complex, copy=False), phase, start, per, out)
+    return out
+
+
 def rmse_with_ci(sq_sum: np.ndarray, sq2_sum: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """RMSE and its 95% interval from sums over trials of e^2 and e^4."""
     ms = sq_sum / n

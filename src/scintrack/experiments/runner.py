@@ -89,7 +89,7 @@ from ..trackers.held_series import HeldSeries
 from . import guards
 from .batching import BATCH_TRIAL_EPOCHS, METRIC_ROWS, trial_batches
 from .merge import MONITORS, merge  # noqa: F401  (merge: re-exported; it lives in .merge, light to import)
-from .metrics import slip_counts, unit_phasor, unwrapped_error, wrap
+from .metrics import derotated_sums, slip_counts, unwrapped_error, wrap
 from .scenario import acquisition, effective_tracking, scenario_epochs, simulate
 
 KINDS = ("wrapped", "unwrapped")
@@ -106,11 +106,9 @@ def block_mean(a: np.ndarray, block: int) -> np.ndarray:
 
 def time_in_lock(y: np.ndarray, total_hat: np.ndarray, per: int, threshold: float, start: int) -> np.ndarray:
     """Fraction of lock-detector blocks in lock from epoch ``start`` on, per trial (see the module docstring)."""
-    r = y[:, start:] * unit_phasor(total_hat[:, start:], -1.0)
-    nb = r.shape[1] // per
-    if nb == 0:
+    s = derotated_sums(y, total_hat, per, start)
+    if s.shape[1] == 0:
         return np.full(y.shape[0], np.nan)
-    s = r[:, : nb * per].reshape(r.shape[0], nb, per).sum(axis=-1)
     i2, q2 = s.real**2, s.imag**2
     locked = (s.real > 0) & ((i2 - q2) >= threshold * (i2 + q2))
     return locked.mean(axis=1)

@@ -1,5 +1,5 @@
 """Compiled (numba) loops that are not trackers: the cycle-slip counter,
-the unit phasors and the phase wrap of :mod:`scintrack.experiments.metrics`, the median over
+the unit phasors, the derotated block sums and the phase wrap of :mod:`scintrack.experiments.metrics`, the median over
 trials of the runner (:class:`scintrack.experiments.runner.TrialMedian`) and
 the scans of the divergence guards (:func:`scintrack.experiments.guards.detect`).
 Each gives what its numpy form gives without the numpy form's full-size
@@ -16,7 +16,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core.extending import intrinsic
 
 
 @njit(cache=True)
@@ -58,6 +60,101 @@ def sin_cos_kernel(e, s, c):
     for i in range(e.size):
         s[i] = math.sin(e[i])
         c[i] = math.cos(e[i])
+
+
+@intrinsic
+def fma(typingctx, a, b, c):
+    """``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``), for float64 arguments."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        d = ir.DoubleType()
+        return builder.call(builder.module.declare_intrinsic("llvm.fma", [d], ir.FunctionType(d, [d, d, d])), args)
+
+    return sig, codegen
+
+
+#: numpy's pairwise summation: blocks of up to this many float64 (re and im of a complex count two) are summed
+#: with eight accumulators, longer runs are split in two (numpy's ``PW_BLOCKSIZE``).
+PW_BLOCKSIZE = 128
+
+
+@njit(cache=True)
+def _derotated(y, phase, t, i):
+    """``y[t, i] * exp(-j phase[t, i])`` as numpy computes ``y * unit_phasor(phase, -1)`` for arrays of 256 KiB
+    and more: libm's cos and sin, and numpy's complex product with the phasor (the temporary, which numpy
+    reuses as the output) as first operand ``a`` and ``y`` as ``b``, on a CPU with FMA (x86-64-v3 and later):
+    ``re = fma(a.re, b.re, -(a.im b.im))``, ``im = fma(a.re, b.im, a.im b.re)``."""
+    c = math.cos(phase[t, i])
+    ms = -math.sin(phase[t, i])
+    b = y[t, i]
+    return fma(c, b.real, -(ms * b.imag)), fma(c, b.imag, ms * b.real)
+
+
+@njit(cache=True)
+def _pairwise_derotated(y, phase, t, lo, m):
+    """Sum of ``m`` derotated values from epoch ``lo`` of row ``t`` in numpy's pairwise order for complex
+    (``pairwise_sum`` over ``n = 2 m`` interleaved float64: re and im accumulate separately)."""
+    n = 2 * m
+    if n < 8:
+        rr, ri = -0.0, -0.0
+        for k in range(m):
+            pr, pi = _derotated(y, phase, t, lo + k)
+            rr += pr
+            ri += pi
+        return rr, ri
+    if n <= PW_BLOCKSIZE:
+        r0, r1 = _derotated(y, phase, t, lo)
+        r2, r3 = _derotated(y, phase, t, lo + 1)
+        r4, r5 = _derotated(y, phase, t, lo + 2)
+        r6, r7 = _derotated(y, phase, t, lo + 3)
+        k = 4
+        while 2 * k < n - (n % 8):
+            pr, pi = _derotated(y, phase, t, lo + k)
+            r0 += pr
+            r1 += pi
+            pr, pi = _derotated(y, phase, t, lo + k + 1)
+            r2 += pr
+            r3 += pi
+            pr, pi = _derotated(y, phase, t, lo + k + 2)
+            r4 += pr
+            r5 += pi
+            pr, pi = _derotated(y, phase, t, lo + k + 3)
+            r6 += pr
+            r7 += pi
+            k += 4
+        rr = (r0 + r2) + (r4 + r6)
+        ri = (r1 + r3) + (r5 + r7)
+        while k < m:
+            pr, pi = _derotated(y, phase, t, lo + k)
+            rr += pr
+            ri += pi
+            k += 1
+        return rr, ri
+    n2 = n // 2
+    n2 -= n2 % 8
+    ar, ai = _pairwise_derotated(y, phase, t, lo, n2 // 2)
+    br, bi = _pairwise_derotated(y, phase, t, lo + n2 // 2, m - n2 // 2)
+    return ar + br, ai + bi
+
+
+@njit(cache=True)
+def derotated_sums_kernel(y, phase, start, per, out):
+    """``out[t, b] = sum(y[t, i] exp(-j phase[t, i]))`` over ``i = start + b per .. start + (b + 1) per - 1``.
+
+    The values numpy gives for ``(y * unit_phasor(phase, -1))[:, start:start + nb per].reshape(-1, nb, per).sum(-1)``
+    with arrays of 256 KiB and more on a CPU with FMA, bit for bit (``tests/test_speed_paths.py``), without its
+    four (trials, epochs) temporaries.  numpy's own bits for that expression depend on the array size: from
+    256 KiB it computes the product in the phasor's temporary (operands swapped, a different rounding of
+    the imaginary part), below it into a new array; on a CPU without FMA its product rounds twice.  The
+    sums agree with either to a few units in the last place, and what the callers keep (a sign, a lock
+    test) is the same unless a sum sits within that of its threshold.
+    """
+    n_tr, nb = out.shape
+    for t in range(n_tr):
+        for b in range(nb):
+            rr, ri = _pairwise_derotated(y, phase, t, start + b * per, per)
+            out[t, b] = complex(0.0 + rr, 0.0 + ri)
 
 
 #: 2 pi split for an exact reduction (Cody-Waite): ``TWO_PI_HI`` has 33 significant bits, so ``k * TWO_PI_HI``
