@@ -111,3 +111,31 @@ def test_a_flipped_bit_fails_its_word_and_values_out_of_range_are_refused():
         source_bits(6, dict(data, c_rs=2.0e4))
     with pytest.raises(ValueError, match="only subframes 1-3"):
         source_bits(18, data)
+
+
+def test_decode_subframe_equals_reading_bit_by_bit_and_rejects_other_values():
+    """The one-integer read (issue 14) gives the words, data and verdicts of the bit-by-bit _get/_put form."""
+    import random
+
+    from scintrack.signals.gps import lnav
+
+    def bit_by_bit(sent, d29s, d30s):
+        source, ok = [0] * lnav.SUBFRAME_BITS, []
+        for w in range(10):
+            word = lnav._get(sent, 30 * w + 1, 30)
+            data24, good = lnav.decode_word(word, d29s, d30s)
+            lnav._put(source, 30 * w + 1, 24, data24)
+            ok.append(good)
+            d29s, d30s = (word >> 1) & 1, word & 1
+        return source, ok
+
+    rng = random.Random(7)
+    for _ in range(300):
+        sent = [rng.getrandbits(1) for _ in range(lnav.SUBFRAME_BITS)]
+        d29s, d30s = rng.getrandbits(1), rng.getrandbits(1)
+        expected = bit_by_bit(sent, d29s, d30s)
+        assert lnav.decode_subframe(sent, d29s, d30s) == expected
+        assert lnav.decode_subframe(np.array(sent, dtype=np.int64), d29s, d30s) == expected
+    for value in (2, 49, -1, 0.5):
+        with pytest.raises(lnav.LNAVDecodeError, match="0 or 1"):
+            lnav.decode_subframe([value] + [0] * (lnav.SUBFRAME_BITS - 1))

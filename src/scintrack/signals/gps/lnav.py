@@ -274,18 +274,36 @@ def encode_subframe(source: Sequence[int], d29s: int = 0, d30s: int = 0) -> list
 
 
 def decode_subframe(sent: Sequence[int], d29s: int = 0, d30s: int = 0) -> tuple[list[int], list[bool]]:
-    """Source bits (parity positions zeroed) and the parity verdict of each word."""
+    """Source bits (parity positions zeroed) and the parity verdict of each word.
+
+    The 300 bits are read into one integer at once and each word's 24 data bits
+    written back through a byte table: the same words, data and verdicts as
+    reading and writing bit by bit (:func:`_get`, :func:`_put`), at a quarter
+    of the Python operations (the Zhao receiver decodes ~7000 subframes per job;
+    issue 14, seventeenth round).
+    """
     if len(sent) != SUBFRAME_BITS:
         raise LNAVDecodeError(f"sent: a subframe is {SUBFRAME_BITS} bits, got {len(sent)}; pass one whole subframe")
-    source = [0] * SUBFRAME_BITS
+    try:
+        value = int(bytes(sent if isinstance(sent, list) else list(sent)).translate(_BIT_DIGITS), 2)
+    except (TypeError, ValueError):
+        raise LNAVDecodeError("sent: bits must be 0 or 1") from None
+    source: list[int] = []
     ok = []
     for w in range(10):
-        word = _get(sent, 30 * w + 1, 30)
+        word = (value >> (30 * (9 - w))) & 0x3FFFFFFF
         data24, good = decode_word(word, d29s, d30s)
-        _put(source, 30 * w + 1, 24, data24)
+        source += _BYTE_BITS[data24 >> 16] + _BYTE_BITS[(data24 >> 8) & 0xFF] + _BYTE_BITS[data24 & 0xFF] + _SIX_ZEROS
         ok.append(good)
         d29s, d30s = (word >> 1) & 1, word & 1
     return source, ok
+
+
+#: :func:`decode_subframe`'s tables: byte 0/1 -> ASCII digit, any other byte -> "x" (rejected by ``int``),
+#: and the eight bits of each byte value, most significant first.
+_BIT_DIGITS = bytes.maketrans(bytes(range(256)), b"01" + b"x" * 254)
+_BYTE_BITS = tuple([(v >> (7 - k)) & 1 for k in range(8)] for v in range(256))
+_SIX_ZEROS = [0] * 6
 
 
 def read_fields(source: Sequence[int]) -> dict[str, float]:
