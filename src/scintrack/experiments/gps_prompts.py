@@ -71,8 +71,10 @@ def prompts_1ms(stream: NoiseStream, trials: Sequence[int], k: int, phi_res: np.
     noise = stream.epochs(list(trials), k, 0, len(phi_res))
     a, sigma = gains(cn0_dbhz, CODE_PERIOD_S, "fixed", cn0_ref_dbhz)
     signal = a * bits * np.exp(1j * phi_res)
+    n = noise.shape[1]
+    row = np.broadcast_to(signal, (n,))  # a scalar C/N0 or amplitude gives the same row for every epoch
     y = np.empty(noise.shape[:2], dtype=complex)
-    _prompts_kernel(np.ascontiguousarray(signal.real), np.ascontiguousarray(signal.imag), np.ascontiguousarray(sigma, dtype=float), noise, y)
+    _prompts_kernel(np.ascontiguousarray(row.real), np.ascontiguousarray(row.imag), np.ascontiguousarray(np.broadcast_to(sigma, (n,)), dtype=float), noise, y)
     return y, noise, sigma
 
 

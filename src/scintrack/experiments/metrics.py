@@ -70,7 +70,10 @@ def wrap(e: np.ndarray) -> np.ndarray:
 
 
 def unit_phasor(e: np.ndarray, sign: float = 1.0) -> np.ndarray:
-    """``exp(sign j e)`` for ``sign`` = +1 or -1 (``cos e + sign j sin e``), bit for bit numpy's complex ``exp``."""
+    """``exp(sign j e)`` for ``sign`` = +1 or -1 (``cos e + sign j sin e``), bit for bit numpy's complex ``exp``.
+
+    The pipeline derotates through :func:`derotated_sums`; this array form is what its tests compare with.
+    """
     s, c = sin_cos(e)
     z = np.empty(c.shape, dtype=complex)
     z.real = c
@@ -83,9 +86,10 @@ def derotated_sums(y: np.ndarray, phase: np.ndarray, per: int, start: int = 0, c
 
     ``y`` (complex) and ``phase`` (rad) are (trials, epochs); ``count`` defaults to every whole block.  The
     values of ``(y * unit_phasor(phase, -1))[:, start:start + count per].reshape(trials, count, per).sum(-1)``
-    (the lock detector's and the Costas PLL's bit sums), bit for bit on a CPU with FMA (numpy's complex
-    product and pairwise sum, :func:`~scintrack.trackers.kernels.derotated_sums_kernel`), without that
-    form's (trials, epochs) temporaries (issue 14, seventeenth round).
+    (the lock detector's and the Costas PLL's bit sums), bit for bit for arrays of 256 KiB and more on a
+    CPU with FMA, to a few units in the last place otherwise (numpy's complex product and pairwise sum:
+    :func:`~scintrack.trackers.kernels.derotated_sums_kernel`), without that form's (trials, epochs)
+    temporaries (issue 14, seventeenth round).
     """
     from ..trackers.kernels import derotated_sums_kernel
 
