@@ -320,19 +320,6 @@ def test_atomic_outputs_get_a_normal_file_mode(tmp_path):
     assert not list(tmp_path.glob(".*"))  # no temporary file left
 
 
-def test_unit_phasor_is_numpys_complex_exp_bit_for_bit():
-    from scintrack.experiments.metrics import unit_phasor
-
-    rng = np.random.default_rng(11)
-    e = rng.normal(0.0, 40.0, (7, 3001))
-    e[0, :9] = [0.0, -0.0, np.pi, -np.pi, 2 * np.pi, 1e9, -1e15, np.nan, np.inf]
-    with np.errstate(invalid="ignore"):
-        old_minus, old_plus = np.exp(-1j * e), np.exp(1j * e)
-    same = dict(equal_nan=True)
-    assert np.array_equal(unit_phasor(e, -1.0), old_minus, **same) and np.array_equal(unit_phasor(e), old_plus, **same)
-    assert np.array_equal(np.signbit(unit_phasor(e[0, :2], -1.0).imag), np.signbit(old_minus[0, :2].imag))  # signed zeros too
-
-
 def _numpys_complex_product_uses_fma() -> bool:
     """Whether numpy's complex multiply on this CPU rounds once per part (x86-64-v3 and later)."""
     from fractions import Fraction
@@ -347,7 +334,7 @@ def _numpys_complex_product_uses_fma() -> bool:
 def test_derotated_sums_are_numpys_product_and_pairwise_sum(per, start):
     """The lock detector's and the Costas PLL's block sums: numpy's expression on arrays of 256 KiB and more
     (the product computed in the phasor's temporary), bit for bit on an FMA CPU, to rounding elsewhere."""
-    from scintrack.experiments.metrics import derotated_sums, unit_phasor
+    from scintrack.experiments.metrics import derotated_sums
 
     rng = np.random.default_rng(per)
     n = 40 * per + start + 5 if per > 20 else 20_000
@@ -356,7 +343,7 @@ def test_derotated_sums_are_numpys_product_and_pairwise_sum(per, start):
     y[1] = 0.0
     nb = (n - start) // per
     assert y.nbytes >= 256 * 1024 or per > 20
-    ref = (y[:, start:] * unit_phasor(phase[:, start:], -1.0))[:, : nb * per].reshape(3, nb, per).sum(axis=-1)
+    ref = (y[:, start:] * np.exp(-1j * phase[:, start:]))[:, : nb * per].reshape(3, nb, per).sum(axis=-1)
     got = derotated_sums(y, phase, per, start)
     assert got.shape == (3, nb) and got.dtype == complex
     if _numpys_complex_product_uses_fma() and y[:, start:].nbytes >= 256 * 1024:

@@ -36,17 +36,6 @@ def unwrapped_error(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
     return e - 2 * np.pi * np.round(e[..., :1] / (2 * np.pi))
 
 
-def sin_cos(e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(sin e, cos e)`` of a real array, shaped as ``e`` (compiled; bit for bit ``numpy.exp(1j * e)``'s parts)."""
-    from ..trackers.kernels import sin_cos_kernel
-
-    e = np.asarray(e, dtype=float)
-    flat = np.ascontiguousarray(e).reshape(-1)
-    s, c = np.empty_like(flat), np.empty_like(flat)
-    sin_cos_kernel(flat, s, c)
-    return s.reshape(e.shape), c.reshape(e.shape)
-
-
 def wrap(e: np.ndarray) -> np.ndarray:
     """``e`` wrapped to (-pi, pi]: ``angle(exp(j e))``, computed by reducing whole cycles (compiled).
 
@@ -69,23 +58,11 @@ def wrap(e: np.ndarray) -> np.ndarray:
     return out[()] if out.ndim == 0 else out
 
 
-def unit_phasor(e: np.ndarray, sign: float = 1.0) -> np.ndarray:
-    """``exp(sign j e)`` for ``sign`` = +1 or -1 (``cos e + sign j sin e``), bit for bit numpy's complex ``exp``.
-
-    The pipeline derotates through :func:`derotated_sums`; this array form is what its tests compare with.
-    """
-    s, c = sin_cos(e)
-    z = np.empty(c.shape, dtype=complex)
-    z.real = c
-    z.imag = s if sign > 0 else -s
-    return z
-
-
 def derotated_sums(y: np.ndarray, phase: np.ndarray, per: int, start: int = 0, count: int | None = None) -> np.ndarray:
     """Sums of ``y exp(-j phase)`` over ``count`` consecutive blocks of ``per`` epochs from epoch ``start``: (trials, count).
 
     ``y`` (complex) and ``phase`` (rad) are (trials, epochs); ``count`` defaults to every whole block.  The
-    values of ``(y * unit_phasor(phase, -1))[:, start:start + count per].reshape(trials, count, per).sum(-1)``
+    values of ``(y * numpy.exp(-1j * phase))[:, start:start + count per].reshape(trials, count, per).sum(-1)``
     (the lock detector's and the Costas PLL's bit sums), bit for bit for arrays of 256 KiB and more on a
     CPU with FMA, to a few units in the last place otherwise (numpy's complex product and pairwise sum:
     :func:`~scintrack.trackers.kernels.derotated_sums_kernel`), without that form's (trials, epochs)

@@ -194,7 +194,11 @@ LOOKUP_TOL_TAU0 = 0.01
 
 def nearest_point(lut: xr.Dataset, s4: float, tau0: float) -> tuple[float, float]:
     """The grid point (S4, tau0) of the table (or of :func:`grid_of`) nearest to (s4, tau0)."""
-    i, j = _nearest_indices(lut, s4, tau0)
+    return _grid_point(lut, *_nearest_indices(lut, s4, tau0))
+
+
+def _grid_point(lut: xr.Dataset, i: int, j: int) -> tuple[float, float]:
+    """(S4, tau0) of grid position (``i``, ``j``)."""
     return float(lut["s4"].values[i]), float(lut["tau0"].values[j])
 
 
@@ -247,7 +251,7 @@ def scintillation_ar(lut: xr.Dataset, s4: float, tau0: float, phase_order: int |
     """
     p = phase_order or TABLE_I_PHASE_ORDER[region_of(s4)]
     i, j = _nearest_indices(lut, s4, tau0)
-    grid_s4, grid_tau0 = float(lut["s4"].values[i]), float(lut["tau0"].values[j])
+    grid_s4, grid_tau0 = _grid_point(lut, i, j)
     return ScintillationAR(
         phase=_model_at(lut, i, j, "phase", p),
         amplitude=_model_at(lut, i, j, "amplitude", AMPLITUDE_ORDER),

@@ -1,5 +1,5 @@
 """Compiled (numba) loops that are not trackers: the cycle-slip counter,
-the unit phasors, the derotated block sums and the phase wrap of :mod:`scintrack.experiments.metrics`, the median over
+the derotated block sums and the phase wrap of :mod:`scintrack.experiments.metrics`, the median over
 trials of the runner (:class:`scintrack.experiments.runner.TrialMedian`) and
 the scans of the divergence guards (:func:`scintrack.experiments.guards.detect`).
 Each gives what its numpy form gives without the numpy form's full-size
@@ -49,19 +49,6 @@ def cycle_slip_kernel(e, hysteresis, settle):
     return cycles, events
 
 
-@njit(cache=True)
-def sin_cos_kernel(e, s, c):
-    """``s = sin(e)``, ``c = cos(e)`` element by element (1-D, contiguous).
-
-    The same libm calls that numpy's complex ``exp`` makes for a purely
-    imaginary argument, so ``c + j s`` equals ``numpy.exp(1j * e)`` bit for
-    bit (``tests/test_speed_paths.py``), without the two complex temporaries.
-    """
-    for i in range(e.size):
-        s[i] = math.sin(e[i])
-        c[i] = math.cos(e[i])
-
-
 @intrinsic
 def fma(typingctx, a, b, c):
     """``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``), for float64 arguments."""
@@ -81,8 +68,9 @@ PW_BLOCKSIZE = 128
 
 @njit(cache=True)
 def _derotated(y, phase, t, i):
-    """``y[t, i] * exp(-j phase[t, i])`` as numpy computes ``y * unit_phasor(phase, -1)`` for arrays of 256 KiB
-    and more: libm's cos and sin, and numpy's complex product with the phasor (the temporary, which numpy
+    """``y[t, i] * exp(-j phase[t, i])`` as numpy computes ``y * numpy.exp(-1j * phase)`` for arrays of 256 KiB
+    and more: libm's cos and sin (numpy's complex ``exp`` of an imaginary argument), and numpy's complex product
+    with the phasor (the temporary, which numpy
     reuses as the output) as first operand ``a`` and ``y`` as ``b``, on a CPU with FMA (x86-64-v3 and later):
     ``re = fma(a.re, b.re, -(a.im b.im))``, ``im = fma(a.re, b.im, a.im b.re)``."""
     c = math.cos(phase[t, i])
@@ -142,7 +130,7 @@ def _pairwise_derotated(y, phase, t, lo, m):
 def derotated_sums_kernel(y, phase, start, per, out):
     """``out[t, b] = sum(y[t, i] exp(-j phase[t, i]))`` over ``i = start + b per .. start + (b + 1) per - 1``.
 
-    The values numpy gives for ``(y * unit_phasor(phase, -1))[:, start:start + nb per].reshape(-1, nb, per).sum(-1)``
+    The values numpy gives for ``(y * numpy.exp(-1j * phase))[:, start:start + nb per].reshape(-1, nb, per).sum(-1)``
     with arrays of 256 KiB and more on a CPU with FMA, bit for bit (``tests/test_speed_paths.py``), without its
     four (trials, epochs) temporaries.  numpy's own bits for that expression depend on the array size: from
     256 KiB it computes the product in the phasor's temporary (operands swapped, a different rounding of
@@ -154,7 +142,7 @@ def derotated_sums_kernel(y, phase, start, per, out):
     for t in range(n_tr):
         for b in range(nb):
             rr, ri = _pairwise_derotated(y, phase, t, start + b * per, per)
-            out[t, b] = complex(0.0 + rr, 0.0 + ri)
+            out[t, b] = complex(0.0 + rr, 0.0 + ri)  # numpy's reduction adds the pairwise sum to its initial 0
 
 
 #: 2 pi split for an exact reduction (Cody-Waite): ``TWO_PI_HI`` has 33 significant bits, so ``k * TWO_PI_HI``
