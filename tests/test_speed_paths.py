@@ -198,6 +198,21 @@ def test_power_law_over_rows_in_one_fft_equals_row_by_row():
     assert np.array_equal(t_two[:, 0], t_all[:, 0]) and np.array_equal(p_two[:, 1], p_all[:, 0])
 
 
+@pytest.mark.parametrize(("n", "ts", "band"), [(3000, 0.001, (0.5, 5.0)), (300, 0.01, (0.5, 5.0)), (3000, 0.001, (1.5, 15.0))])
+def test_power_law_fit_reads_the_rfft_bins_in_place(n, ts, band):
+    """The fit from the rfft rows (bins read in place) is the fit of the stored bins taken out as arrays, bit for bit."""
+    rng = np.random.default_rng(n)
+    spectra = np.fft.rfft(np.cumsum(rng.normal(size=(5, n)), axis=1), axis=-1)
+    setup = power_law.spectrum_setup(n, ts, *band)
+    t_out, p_out = np.empty(5), np.empty(5)
+    power_law._fit_spectra(setup, spectra, t_out, p_out)
+    for r in range(5):
+        bins = spectra[r, setup.k]
+        t_r, p_r = power_law.power_law_fit(setup, np.ascontiguousarray(bins.real), np.ascontiguousarray(bins.imag))
+        assert (t_out[r], p_out[r]) == (t_r, p_r)
+    assert np.all(np.isfinite(t_out)) and np.all(t_out > 0)
+
+
 def _tiny_training_set() -> xr.Dataset:
     from scintrack.signals.csm import generate_csm
 

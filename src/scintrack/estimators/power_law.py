@@ -211,9 +211,17 @@ def power_law_fit(setup, s_re, s_im):
 
 
 @njit(cache=True)
-def _fit_rows(setup, s_re, s_im, t_out, p_out):
-    for r in range(s_re.shape[0]):
-        t_out[r], p_out[r] = power_law_fit(setup, s_re[r], s_im[r])
+def _fit_spectra(setup, spectra, t_out, p_out):
+    """(T, p) of each row of ``spectra`` (rows of ``numpy.fft.rfft`` output): the stored bins ``setup.k`` read in place."""
+    nk = setup.k.size
+    s_re = np.empty(nk)
+    s_im = np.empty(nk)
+    for r in range(spectra.shape[0]):
+        for j in range(nk):
+            v = spectra[r, setup.k[j]]
+            s_re[j] = v.real
+            s_im[j] = v.imag
+        t_out[r], p_out[r] = power_law_fit(setup, s_re, s_im)
 
 
 def estimate_power_law(
@@ -241,14 +249,12 @@ def estimate_power_law(
     p_out = np.empty((rows.shape[0], starts.size))
     chunk = max(1, 2_000_000 // n_win)  # windows per rfft call (bounds the memory)
     if starts.size == 1 and n == n_win:  # one window per row (the SAKF's refresh): one rfft over the rows, same bins
-        bins = np.fft.rfft(rows, axis=-1)[:, setup.k]
-        _fit_rows(setup, np.ascontiguousarray(bins.real), np.ascontiguousarray(bins.imag), t_out[:, 0], p_out[:, 0])
+        _fit_spectra(setup, np.fft.rfft(rows, axis=-1), t_out[:, 0], p_out[:, 0])
     else:
         for r in range(rows.shape[0]):
             for c in range(0, starts.size, chunk):
                 sel = starts[c : c + chunk]
-                bins = np.fft.rfft(rows[r, sel[:, None] + np.arange(n_win)], axis=-1)[:, setup.k]
-                _fit_rows(setup, np.ascontiguousarray(bins.real), np.ascontiguousarray(bins.imag), t_out[r, c : c + sel.size], p_out[r, c : c + sel.size])
+                _fit_spectra(setup, np.fft.rfft(rows[r, sel[:, None] + np.arange(n_win)], axis=-1), t_out[r, c : c + sel.size], p_out[r, c : c + sel.size])
     times = (starts + n_win - 1) * ts
     return times, t_out.reshape(*lead, starts.size), p_out.reshape(*lead, starts.size)
 

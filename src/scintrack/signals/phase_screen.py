@@ -31,10 +31,12 @@ sigma_phi at L1 come out as configured.
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from ..estimators.s4 import window_s4  # S4 lives in estimators.s4 (re-exported here)
 from ..estimators.sigma_phi import detrend_phase, window_sigma_phi  # noqa: F401  (sigma_phi lives in estimators.sigma_phi; re-exported here)
@@ -71,7 +73,19 @@ def shaped_screen(white: np.ndarray, n: int, dx: float, spectral_index: float, o
 
 def fresnel_propagate(phase: np.ndarray, dx: float, carrier_hz: float, height_m: float) -> np.ndarray:
     """Complex field on the ground below a thin phase screen (periodic FFT propagation)."""
-    return np.fft.ifft(np.fft.fft(np.exp(1j * phase)) * _fresnel_transfer(phase.size, dx, carrier_hz, height_m))
+    field = np.empty(phase.shape, dtype=complex)
+    _unit_phasor(np.ascontiguousarray(phase, dtype=float).ravel(), field.ravel())
+    return np.fft.ifft(np.fft.fft(field) * _fresnel_transfer(phase.size, dx, carrier_hz, height_m))
+
+
+@njit(cache=True)
+def _unit_phasor(phase, out):
+    """``out = exp(j phase)`` (1-D) as ``numpy.exp(1j * phase)`` gives it: libm's ``cos`` and ``sin``, the values
+    numpy's complex ``exp`` of an imaginary argument returns (``tests/test_surrogate.py``: bit for bit),
+    without its complex temporary; a calibration propagates a few hundred screens (issue 14)."""
+    for i in range(phase.size):
+        x = phase[i] + 0.0  # the imaginary part of numpy's 1j * phase: -0.0 becomes +0.0, every other value stays
+        out[i] = complex(math.cos(x), math.sin(x))
 
 
 @functools.lru_cache(maxsize=8)
