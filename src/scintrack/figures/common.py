@@ -51,9 +51,9 @@ def new_figure(nrows: int = 2, ncols: int = 1, *, figsize=(6.4, 6.0), **kwargs):
 def save_figure(fig, paths: Iterable[str | os.PathLike]) -> list[Path]:
     """Save ``fig`` to every path (format from the suffix), atomically; close it.
 
-    Each file is drawn once, not twice: matplotlib draws a figure that has a layout engine once more
-    before saving it, and the engine that ``tight_layout()`` leaves behind is a placeholder that lays
-    out nothing, so it is removed first (same bytes: ``tests/test_figures_tables.py``; issue 14).
+    Each file is drawn once, not twice.  matplotlib draws a figure that has a layout engine once more
+    before saving it; the engine left by ``tight_layout()`` is a placeholder that does no layout, so
+    it is removed first (same bytes: ``tests/test_figures_tables.py``; issue 14).
     """
     from matplotlib.layout_engine import PlaceHolderLayoutEngine
 

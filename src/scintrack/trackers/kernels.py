@@ -69,9 +69,9 @@ PW_BLOCKSIZE = 128
 @njit(cache=True)
 def _derotated(y, phase, t, i):
     """``y[t, i] * exp(-j phase[t, i])`` as numpy computes ``y * numpy.exp(-1j * phase)`` for arrays of 256 KiB
-    and more: libm's cos and sin (numpy's complex ``exp`` of an imaginary argument), and numpy's complex product
-    with the phasor (the temporary, which numpy
-    reuses as the output) as first operand ``a`` and ``y`` as ``b``, on a CPU with FMA (x86-64-v3 and later):
+    and more: libm's cos and sin (numpy's complex ``exp`` of an imaginary argument), and numpy's complex
+    product on a CPU with FMA (x86-64-v3 and later) with the phasor as first operand ``a`` (numpy reuses
+    that temporary as the output) and ``y`` as ``b``:
     ``re = fma(a.re, b.re, -(a.im b.im))``, ``im = fma(a.re, b.im, a.im b.re)``."""
     c = math.cos(phase[t, i])
     ms = -math.sin(phase[t, i])
