@@ -143,8 +143,8 @@ def _susi(kind: str, ts: float) -> SusiKF:
 @pytest.mark.parametrize("kind", ["akf_atan", "akf_atan2", "akf_nominal_r", "sakf_atan2", "sakf_atan_hop7_weighted"])
 def test_susi_lane_kernel_is_the_scalar_kernel_bit_for_bit(kind, ts):
     """Through ``SusiKF.run`` (chunks between the scintillation refreshes), against the same driver on the
-    one-trial kernel on the same batch: the SAKF's refresh (numpy QR detrend, FFT) is not bit-independent
-    of the batch size itself, so each batch is compared with itself."""
+    one-trial kernel on the same batch (the refresh is row by row, so each batch compared with itself
+    tests the kernels; batch independence of the whole run: ``tests/test_shard_batches.py``)."""
     y, init = SIGNALS[ts]
     tr = _susi(kind, ts)
     for n, s in _slices():

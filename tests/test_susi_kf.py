@@ -149,7 +149,7 @@ def test_scintillation_block_reads_a_known_power_law_and_the_weight_is_monotone(
     out = trk.scintillation_update(phi + 2 * np.pi * (500 * t + 0.4 * t**2))
     assert abs(np.mean(out["p"]) - p0) < 0.4, np.mean(out["p"])
     assert 0.7 < np.exp(np.mean(np.log(out["T"]))) / T0 < 2.0
-    np.testing.assert_allclose(out["phi3"], quadratic_detrend(phi).std(axis=1), rtol=1e-6)
+    np.testing.assert_allclose(out["phi3"], quadratic_detrend(phi)[0].std(axis=1), rtol=1e-6)
     w = GainWeighting(alpha=0.8, phi_ref_rad=0.5, exponent=1.0)(np.array([0.0, 0.1, 1.0, 3.0]))
     assert w[0] == 0.8 and np.all(np.diff(w) < 0)
     s_phi, s_f = trk.scint_psd(np.array([1e-2]), np.array([2.5]))
@@ -157,6 +157,38 @@ def test_scintillation_block_reads_a_known_power_law_and_the_weight_is_monotone(
     np.testing.assert_allclose(s_f, 0.19**2 * s_phi / (2 * np.pi) ** 2)
     del signal
 
+
+
+@pytest.mark.parametrize("n", [3000, 301, 7])
+def test_quadratic_detrend_is_the_least_squares_residual_row_by_row(n):
+    """Closed forms: the residual of a quadratic is 0, the residual is orthogonal to {1, m, m^2} and equals
+    numpy's least-squares residual, its std is numpy's std of it; and a row's residual and std have the same
+    bits alone, in a batch of 40, in batches of 32 + 8 and as a strided view (a BLAS product did not, on an
+    AVX-512 CPU: issue 14)."""
+    rng = np.random.default_rng(n)
+    x = np.cumsum(rng.standard_normal((40, n)), axis=1)
+    m = np.linspace(-1.0, 1.0, n)
+    quad = 3.0 + 40.0 * m - 7.0 * m * m
+    r0, s0 = quadratic_detrend(quad[None, :])
+    assert np.abs(r0).max() < 1e-12 * 40.0 and s0[0] < 1e-12 * 40.0
+    r, s = quadratic_detrend(x)
+    A = np.stack([np.ones(n), m, m * m], axis=1)
+    lsq = x.T - A @ np.linalg.lstsq(A, x.T, rcond=None)[0]
+    np.testing.assert_allclose(r, lsq.T, rtol=0, atol=1e-11 * np.abs(x).max())
+    assert np.abs(r @ A).max() < 1e-10 * np.abs(x).max() * n
+    np.testing.assert_allclose(s, r.std(axis=1), rtol=1e-13)
+    np.testing.assert_allclose(s, lsq.std(axis=0), rtol=1e-9)
+    strided = np.zeros((40, n + 5))
+    strided[:, 2 : n + 2] = x
+    ways = [
+        [quadratic_detrend(x[i : i + 1]) for i in range(40)],
+        [quadratic_detrend(x[:32]), quadratic_detrend(x[32:])],
+        [quadratic_detrend(strided[:, 2 : n + 2])],
+    ]
+    for parts in ways:
+        r_parts, s_parts = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+        assert r_parts.view(np.uint64).tolist() == r.view(np.uint64).tolist()
+        assert s_parts.view(np.uint64).tolist() == s.view(np.uint64).tolist()
 
 def test_clock_follows_the_scenario_and_labels():
     trk = registry.build("x", {"type": "susi_akf"}, TrackerContext(scenario={"clock": "rubidium"}, tracking=TRACKING, ts=TS))

@@ -312,18 +312,101 @@ def susi_kernel_scalar(y, i0, i1, prm, x_all, P_all, buf2, buf4, sums, counters,
         counters[t, 0], counters[t, 1] = pos, count
 
 
-def quadratic_detrend(windows: np.ndarray) -> np.ndarray:
-    """Residual of a least-squares quadratic fit along the last axis (rows: trials)."""
-    basis = _quadratic_basis(windows.shape[-1])
-    w = windows - windows[..., :1]
-    return w - (w @ basis) @ basis.T
+def quadratic_detrend(windows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Residual of a least-squares quadratic fit along the last axis (rows: trials), and its standard
+    deviation per row (numpy's ``std``: the mean, then the mean square deviation from it).
+
+    Each row is ``w - B (B^T w)`` with ``w = x - x[0]`` and ``B`` the orthonormal basis of
+    :func:`_quadratic_basis`, computed by :func:`_detrend_rows` row by row in one fixed order, so a
+    row's residual does not depend on which other rows are in the call.  A BLAS product
+    (``w @ B``) does not promise that: OpenBLAS picks its kernel by the number of rows and the CPU,
+    and on an AVX-512 machine the same trial came out differently in a batch of 40 trials and in
+    batches of 32 + 8 (``tests/test_shard_batches.py``; issue 14).
+    """
+    x = np.asarray(windows, dtype=float)
+    rows = x if x.ndim == 2 else x.reshape(-1, x.shape[-1])
+    out, std = np.empty(rows.shape), np.empty(rows.shape[0])
+    _detrend_rows(rows, _quadratic_basis(x.shape[-1]), out, std)
+    return out.reshape(x.shape), std.reshape(x.shape[:-1])
+
+
+@njit(cache=True)
+def _sum4(a, b, c, d):
+    return (a + b) + (c + d)
+
+
+@njit(cache=True)
+def _detrend_rows(x, basis, out, std):
+    """``out[t] = w - B (B^T w)``, ``w = x[t] - x[t, 0]``, and ``std[t]`` of ``out[t]``, for every row ``t``
+    of ``x`` (rows, n).
+
+    ``basis``: ``B^T``, (3, n).  Every sum over the samples (``B^T w``, the residual's sum, its squared
+    deviations from the mean) is four partial sums over ``m = 4i + r``, added as ``(s0 + s1) + (s2 + s3)``,
+    then the last ``n mod 4`` samples in order; ``B (B^T w)`` is ``c0 B[m, 0] + c1 B[m, 1] + c2 B[m, 2]``
+    from the left.  Plain floating point (no fast-math): no operation is fused or reassociated.
+    """
+    n_rows, n = x.shape
+    n4 = n - n % 4
+    u, v, z = basis[0], basis[1], basis[2]
+    for t in range(n_rows):
+        row, res = x[t], out[t]
+        x0 = row[0]
+        a0 = a1 = a2 = a3 = 0.0
+        b0 = b1 = b2 = b3 = 0.0
+        e0 = e1 = e2 = e3 = 0.0
+        for m in range(0, n4, 4):
+            d0, d1, d2, d3 = row[m] - x0, row[m + 1] - x0, row[m + 2] - x0, row[m + 3] - x0
+            a0 += d0 * u[m]
+            a1 += d1 * u[m + 1]
+            a2 += d2 * u[m + 2]
+            a3 += d3 * u[m + 3]
+            b0 += d0 * v[m]
+            b1 += d1 * v[m + 1]
+            b2 += d2 * v[m + 2]
+            b3 += d3 * v[m + 3]
+            e0 += d0 * z[m]
+            e1 += d1 * z[m + 1]
+            e2 += d2 * z[m + 2]
+            e3 += d3 * z[m + 3]
+        c0, c1, c2 = _sum4(a0, a1, a2, a3), _sum4(b0, b1, b2, b3), _sum4(e0, e1, e2, e3)
+        for m in range(n4, n):
+            d = row[m] - x0
+            c0 += d * u[m]
+            c1 += d * v[m]
+            c2 += d * z[m]
+        for m in range(n):
+            res[m] = (row[m] - x0) - (c0 * u[m] + c1 * v[m] + c2 * z[m])
+        a0 = a1 = a2 = a3 = 0.0
+        for m in range(0, n4, 4):
+            a0 += res[m]
+            a1 += res[m + 1]
+            a2 += res[m + 2]
+            a3 += res[m + 3]
+        total = _sum4(a0, a1, a2, a3)
+        for m in range(n4, n):
+            total += res[m]
+        mean = total / n
+        a0 = a1 = a2 = a3 = 0.0
+        for m in range(0, n4, 4):
+            d0, d1, d2, d3 = res[m] - mean, res[m + 1] - mean, res[m + 2] - mean, res[m + 3] - mean
+            a0 += d0 * d0
+            a1 += d1 * d1
+            a2 += d2 * d2
+            a3 += d3 * d3
+        total = _sum4(a0, a1, a2, a3)
+        for m in range(n4, n):
+            d = res[m] - mean
+            total += d * d
+        std[t] = math.sqrt(total / n)
 
 
 @functools.lru_cache(maxsize=8)
 def _quadratic_basis(n: int) -> np.ndarray:
-    """Orthonormal basis (n, 3) of {1, m, m^2} on m in [-1, 1] (QR; cached per window length, read-only)."""
+    """``B^T`` (3, n): the orthonormal basis of {1, m, m^2} on m in [-1, 1] (QR), one row per
+    basis vector (cached per window length, read-only)."""
     m = np.linspace(-1.0, 1.0, n)
     basis, _ = np.linalg.qr(np.stack([np.ones(n), m, m * m], axis=1))
+    basis = np.ascontiguousarray(basis.T)
     basis.setflags(write=False)
     return basis
 
@@ -411,8 +494,7 @@ class SusiKF:
         """Phi3, T, p, the eq. (7)-(8) PSDs and the eq. (12) weight from the last window of carrier phases."""
         from ..estimators.power_law import estimate_power_law
 
-        resid = quadratic_detrend(phases)
-        phi3 = resid.std(axis=-1)
+        resid, phi3 = quadratic_detrend(phases)
         _, T, p = estimate_power_law(resid, self.ts, window_s=resid.shape[-1] * self.ts, f_lo_hz=self.fit_band_hz[0], f_hi_hz=self.fit_band_hz[1])
         T, p = T[:, 0], p[:, 0]
         if self.scintillation_q:
