@@ -78,7 +78,9 @@ MIN_JOBS = 6
 PRELOAD = (
     "numpy", "scipy.signal", "scipy.stats", "scipy.linalg", "scipy.ndimage", "scipy.integrate", "scipy.fft", "scipy.io",
     "pandas", "xarray", "netCDF4", "numba", "statsmodels.tsa.ar_model", "statsmodels.tsa.stattools",
-    "matplotlib", "matplotlib.pyplot", "snakemake.script", "snakemake.logging", "snakemake.iocontainers",
+    "matplotlib", "matplotlib.pyplot", "matplotlib.backends.backend_pdf", "snakemake.script", "snakemake.logging", "snakemake.iocontainers",
+    # imported inside functions: the tracker registry's and the config's schema checks, every figure's PDF, every table's Markdown
+    "jsonschema", "tabulate",
     "scintrack.figures.vila_valls_2018", "scintrack.figures.vila_valls_2018_aekf", "scintrack.figures.vila_valls_2018_traces",
     "scintrack.figures.susi_2014", "scintrack.figures.zhao_jamming", "scintrack.figures.zhao_receiver", "scintrack.figures.ranking",
     "scintrack.tables.vila_valls_2018", "scintrack.tables.vila_valls_2018_aekf", "scintrack.tables.vila_valls_2018_traces",
