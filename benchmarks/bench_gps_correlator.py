@@ -20,6 +20,11 @@ from __future__ import annotations
 import argparse
 import time
 
+# first: importing scintrack points numba's cache at the package's versioned folder (scintrack.numba_cache);
+# numba imported before it would use __pycache__, checked against each kernel's own file only (stale kernels)
+import scintrack  # noqa: F401
+
+# isort: split
 import numpy as np
 from numba import njit
 

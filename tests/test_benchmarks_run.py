@@ -34,3 +34,19 @@ def test_run_quick_writes_the_table_with_a_positive_finite_rate_on_every_row(tmp
     assert len(flop) == 1 and "Gflop/s" in flop[0]["note"]
     assert not list(tmp_path.glob(".results.csv.*"))  # the temporary file was renamed
     assert "AEKF-AR kernel" in proc.stdout
+
+
+def test_benchmark_modules_run_alone_use_the_packages_versioned_numba_cache(tmp_path):
+    """Each benchmark script imported on its own (as ``python benchmarks/bench_trackers.py`` does) must compile into
+    :mod:`scintrack.numba_cache`'s folder, not into ``__pycache__``, where numba checks a kernel against its own file
+    only and would run a kernel built from an older version of a block it inlines (seen: a stale PLL kernel)."""
+    for module in ("bench_trackers", "bench_gps_correlator", "machine", "bench_csm_ar"):
+        code = (f"import sys; sys.path.insert(0, {str(REPO / 'benchmarks')!r}); import {module}; "
+                "from scintrack import numba_cache; from scintrack.trackers import pll; "
+                "print(pll.pll_kernel._cache._cache_path); print(numba_cache.cache_dir())")
+        env = {k: v for k, v in __import__("os").environ.items() if k != "NUMBA_CACHE_DIR"}
+        env["SCINTRACK_NUMBA_CACHE_ROOT"] = str(tmp_path)
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        cache_path, folder = proc.stdout.split()
+        assert cache_path.startswith(folder) and folder.startswith(str(tmp_path)), (module, cache_path, folder)
