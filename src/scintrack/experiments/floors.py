@@ -420,14 +420,17 @@ def _differenced_kriging_variance(cov_s: np.ndarray, k: np.ndarray, *, n: int, t
     g[:4] += r_phi * D3_ACF + s3
     h = np.fft.irfft(spec * np.conj(dh), nfft)  # h_j = sum_a D3[a] C_s(j + a), j mod nfft
     h[(-np.arange(4)) % nfft] += r_phi * D3  # and of R_phi I
-    V = h[(np.arange(m)[:, None] - k[None, :]) % nfft]  # column j: D3 N e_(k_j)
+    # V[:, j] = D3 N e_(k_j), held as V^T (one row per epoch k_j) so that every FFT runs along contiguous rows:
+    # numpy's FFT gives each 1-D transform the same bits along either axis, and along rows it is ~40% faster
+    vt = h[(np.arange(m)[None, :] - k[:, None]) % nfft]
     # Gohberg-Semencul: G^-1 = (L(x) L(x)^T - L(Z J x) L(Z J x)^T) / x_0, x = G^-1 e_0, L(v): lower-triangular Toeplitz
     x = solve_toeplitz(g, np.eye(m, 1)[:, 0], check_finite=False)
     zjx = np.concatenate([[0.0], x[:0:-1]])
-    fv = np.fft.rfft(V, nfft, axis=0)
+    fvt = np.fft.rfft(vt, nfft, axis=-1)
     qf = np.zeros(k.size)
     for sign, col in ((1.0, x), (-1.0, zjx)):  # (L(col)^T V)_i = sum_s col_s V_(i+s): a correlation
-        lt_v = np.fft.irfft(np.conj(np.fft.rfft(col, nfft))[:, None] * fv, nfft, axis=0)[:m]
+        lt_vt = np.fft.irfft(np.conj(np.fft.rfft(col, nfft))[None, :] * fvt, nfft, axis=-1)[:, :m]
+        lt_v = np.ascontiguousarray(lt_vt.T)  # (m, epochs) as before, so the sum over i keeps einsum's order and bits
         qf += sign * np.einsum("ij,ij->j", lt_v, lt_v)
     return c[0] + r_phi - qf / x[0]
 
