@@ -146,9 +146,12 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = Tr
     ds.attrs["content_sha256"] = digest
     encoding = {}
     if compress:
+        # level 1: measured on the run's largest results (a 139-MB trace-dynamics result, cycle-slip and Susi results)
+        # against level 4, the files are about 1% larger and written 15-40% faster (2.34 -> 1.43 s, 0.48 -> 0.41 s,
+        # 0.36 -> 0.28 s) and read faster; the values, hence content_sha256, are the same (issue 14)
         for name, var in ds.data_vars.items():
             if var.dtype.kind in "fiu" and var.ndim > 0:
-                encoding[name] = {"zlib": True, "complevel": 4}
+                encoding[name] = {"zlib": True, "complevel": 1}
     def write(tmp: str) -> None:
         try:
             ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
