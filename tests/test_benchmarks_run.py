@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 import subprocess
 import sys
 
@@ -44,7 +45,7 @@ def test_benchmark_modules_run_alone_use_the_packages_versioned_numba_cache(tmp_
         code = (f"import sys; sys.path.insert(0, {str(REPO / 'benchmarks')!r}); import {module}; "
                 "from scintrack import numba_cache; from scintrack.trackers import pll; "
                 "print(pll.pll_kernel._cache._cache_path); print(numba_cache.cache_dir())")
-        env = {k: v for k, v in __import__("os").environ.items() if k != "NUMBA_CACHE_DIR"}
+        env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
         env["SCINTRACK_NUMBA_CACHE_ROOT"] = str(tmp_path)
         proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
         assert proc.returncode == 0, proc.stderr[-2000:]

@@ -158,7 +158,6 @@ def test_scintillation_block_reads_a_known_power_law_and_the_weight_is_monotone(
     del signal
 
 
-
 @pytest.mark.parametrize("n", [3000, 301, 7])
 def test_quadratic_detrend_is_the_least_squares_residual_row_by_row(n):
     """Closed forms: the residual of a quadratic is 0, the residual is orthogonal to {1, m, m^2} and equals
@@ -189,6 +188,7 @@ def test_quadratic_detrend_is_the_least_squares_residual_row_by_row(n):
         r_parts, s_parts = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
         assert r_parts.view(np.uint64).tolist() == r.view(np.uint64).tolist()
         assert s_parts.view(np.uint64).tolist() == s.view(np.uint64).tolist()
+
 
 def test_clock_follows_the_scenario_and_labels():
     trk = registry.build("x", {"type": "susi_akf"}, TrackerContext(scenario={"clock": "rubidium"}, tracking=TRACKING, ts=TS))
