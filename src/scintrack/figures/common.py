@@ -52,7 +52,7 @@ def save_figure(fig, paths: Iterable[str | os.PathLike]) -> list[Path]:
     """Save ``fig`` to every path (format from the suffix), atomically; close it.
 
     Each file is drawn once, not twice.  matplotlib draws a figure that has a layout engine once more
-    before saving it; the engine left by ``tight_layout()`` is a placeholder that does no layout, so
+    before saving it.  The engine left by ``tight_layout()`` is a placeholder that does no layout:
     it is removed first (same bytes: ``tests/test_figures_tables.py``; issue 14).
     """
     from matplotlib.layout_engine import PlaceHolderLayoutEngine
