@@ -160,6 +160,54 @@ def test_compiled_kernel_matches_the_numpy_reference(cn0_dbhz):
     assert abs(np.median(fast.extras["cn0_dbhz"][:, 100:]) - cn0_dbhz) < 1.5  # A^2 / (2 sigma_v^2 T)
 
 
+def _bits(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a).view(np.uint64 if a.dtype == np.float64 else a.dtype)
+
+
+@pytest.mark.parametrize("r", ["m2m4", 0.4])
+def test_resume_from_the_first_changed_prior_has_the_bits_of_a_whole_run(r):
+    """What the IODE-check receiver's fixed-point iterations rely on: resumed from the posterior of the epoch
+    before the first changed prior (covariance kept per epoch, M2M4 window replayed), every output of every
+    trial has the bits of a run from epoch 0 with the new priors; changes at epoch 0, inside the M2M4
+    start-up window, later, at the last epoch and nowhere (a copy) are all covered, and a covariance
+    failure before the change is kept while one after it is recomputed."""
+    n, k = 6, 400
+    y, phi, _, bits = _signal(15.0, n, k, seed=4)
+    rng = np.random.default_rng(8)
+    old = np.full((n, k), 0.5)
+    new = old.copy()
+    for t, first in enumerate([0, 30, 150, 399, None, 220]):  # trial 4: nothing changes
+        if first is not None:
+            new[t, first:] = np.where(rng.random(k - first) < 0.5, (bits[t, first:] > 0).astype(float), 0.5)
+            new[t, first] = 1.0 - old[t, first] if first == 399 else (0.999 if bits[t, first] > 0 else 0.001)
+    tr = MMKF(ts=T, m2m4_window=50, r=r, amplitude0=1.0, p0_diag=(0.01, 0.05, 0.01))
+    previous = tr.run(y, _init(phi[:, 0], old), keep_covariance=True)
+    assert previous.extras["covariance"].shape == (n, k, 6)
+    resumed = tr.resume(y, _init(phi[:, 0], new), previous, old)
+    whole = tr.run(y, _init(phi[:, 0], new), keep_covariance=True)
+    assert set(resumed.extras) == set(whole.extras)
+    np.testing.assert_array_equal(_bits(resumed.theta_d), _bits(whole.theta_d))
+    for key in whole.extras:
+        np.testing.assert_array_equal(_bits(resumed.extras[key]), _bits(whole.extras[key]), err_msg=key)
+    assert not np.array_equal(whole.theta_d[1], previous.theta_d[1])  # the change mattered: not a copy by accident
+    np.testing.assert_array_equal(_bits(resumed.theta_d[4]), _bits(previous.theta_d[4]))
+    np.testing.assert_array_equal(tr.run(y, _init(phi[:, 0], new)).theta_d, whole.theta_d)  # keeping P changes nothing
+    with pytest.raises(ValueError, match="keep_covariance=True"):
+        tr.resume(y, _init(phi[:, 0], new), tr.run(y, _init(phi[:, 0], old)), old)
+
+
+def test_resume_keeps_a_covariance_failure_before_the_change_and_recomputes_one_after_it():
+    y, phi, _, bits = _signal(30.0, 2, 100, seed=9)
+    tr = MMKF(ts=T, m2m4_window=20)
+    old = np.full((2, 100), 0.5)
+    new = old.copy()
+    new[:, 60:] = 0.9
+    prev = tr.run(y, _init(phi[:, 0], old), keep_covariance=True)
+    prev.extras["cov_fail_epoch"][:] = [10, 80]  # as if epochs 10 and 80 had failed (the kernel recomputes only from 60)
+    out = tr.resume(y, _init(phi[:, 0], new), prev, old)
+    np.testing.assert_array_equal(out.extras["cov_fail_epoch"], [10, -1])
+
+
 @pytest.mark.parametrize("q_form", ["exact", "zhao_eq3"])
 def test_stays_finite_at_10_dbhz_over_5000_epochs(q_form):
     n, k = 16, 5000

@@ -144,21 +144,37 @@ class PriorSource:
 
 
 def run_mm(tracker, y20: np.ndarray, init: TrackInit, source: PriorSource):
-    """The MM filter with the bit priors of ``source``; for ``mm_iode`` iterated to the sequential fixed point."""
+    """The MM filter with the bit priors of ``source``; for ``mm_iode`` iterated to the sequential fixed point.
+
+    Each iteration after the first resumes the previous one (``tracker.resume``, when the tracker has it,
+    as :class:`~scintrack.trackers.mm_kf.MMKF` does): a trial is filtered again only from the first sum
+    whose prior changed, with the bits of a run over the whole span (issue 14: the iterations changed the
+    priors from a frame 14-225 s into the 240-s span, so ~60 % of the filtering was a repeat).
+    """
     strategy = source.strategy
     trials = y20.shape[0]
+    iterate = strategy == "mm_iode"
+    resume = getattr(tracker, "resume", None) if iterate else None
     decisions = np.zeros((trials, y20.shape[1]), dtype=np.int8)
     priors = np.stack([source.priors(decisions[t]) for t in range(trials)])
-    for _ in range(MAX_FIXED_POINT_ITERATIONS if strategy == "mm_iode" else 1):
-        out = tracker.run(y20, TrackInit(phase=init.phase, doppler_hz=init.doppler_hz, rate_hz_s=init.rate_hz_s, bit_prior=priors))
+    out = previous = None
+    for _ in range(MAX_FIXED_POINT_ITERATIONS if iterate else 1):
+        step = TrackInit(phase=init.phase, doppler_hz=init.doppler_hz, rate_hz_s=init.rate_hz_s, bit_prior=priors)
+        if resume is None:
+            out = tracker.run(y20, step)
+        elif out is None:
+            out = tracker.run(y20, step, keep_covariance=True)
+        else:
+            out = resume(y20, step, out, previous)
         new = (out.extras["p_plus"] < 0.5).astype(np.int8)  # level -1 = bit 1
-        if strategy != "mm_iode" or np.array_equal(new, decisions):
+        if not iterate or np.array_equal(new, decisions):
             decisions = new
             break
         decisions = new
-        priors = np.stack([source.priors(decisions[t]) for t in range(trials)])
+        previous, priors = priors, np.stack([source.priors(decisions[t]) for t in range(trials)])
     else:
         raise RuntimeError("IODE-check receiver did not reach its sequential fixed point")
+    out.extras.pop("covariance", None)
     return out, priors, decisions
 
 

@@ -176,18 +176,40 @@ def two_mode_iq_update(x, P, ph0, ph1, k0, k1, dx, r, yr, yi, log_pp, log_pm):
     return mu_p, wp - wm
 
 
+#: the posterior covariance entries kept per epoch for :meth:`MMKF.resume` (upper triangle, row by row)
+COV_ENTRIES = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+#: the per-epoch outputs, in :func:`mm_kf_loop`'s argument order, and their keys in ``TrackOutput`` (theta: ``theta_d``)
+OUTPUTS = {"theta": "theta_d", "freq": "frequency_hz", "amp": "amplitude", "p_plus": "p_plus", "log_odds": "log_odds", "cn0": "cn0_dbhz"}
+
+
 @njit(cache=True)
-def mm_kf_kernel(y, prm):
+def mm_kf_kernel(y, prm, keep_covariance=False):
+    """The filter over every trial from epoch 0: (theta, freq, amp, p_plus, log_odds, cn0_db, cov, cov_fail),
+    ``cov`` the posterior covariances (:func:`mm_kf_loop`) if ``keep_covariance``, else without epochs."""
     n_tr, k = y.shape
+    theta, freq, amp = np.empty((n_tr, k)), np.empty((n_tr, k)), np.empty((n_tr, k))
+    p_plus, log_odds, cn0_db = np.empty((n_tr, k)), np.empty((n_tr, k)), np.empty((n_tr, k))
+    cov = np.empty((n_tr, k if keep_covariance else 0, 6))
+    cov_fail = np.full(n_tr, -1, dtype=np.int64)
+    mm_kf_loop(y, prm, np.zeros(n_tr, dtype=np.int64), theta, freq, amp, p_plus, log_odds, cn0_db, cov, cov_fail)
+    return theta, freq, amp, p_plus, log_odds, cn0_db, cov, cov_fail
+
+
+@njit(cache=True)
+def mm_kf_loop(y, prm, start, theta, freq, amp, p_plus, log_odds, cn0_db, cov, cov_fail):
+    """The filter of trial ``t`` over epochs ``start[t] ..`` into the output arrays (trials, epochs).
+
+    ``start[t] = 0``: from ``prm.x0``, ``prm.P0``.  ``start[t] = s > 0``: from the posterior of epoch
+    ``s - 1`` already in the outputs (state ``amp, theta, freq`` and covariance ``cov``), with the M2M4
+    window replayed over epochs ``0 .. s-1`` (the same pushes, so the same sums): the rest of the trial
+    then has the bits of a run from epoch 0, the filter being causal.  ``start[t] >= epochs``: nothing.
+    ``cov`` (trials, epochs, 6) receives the posterior covariance (:data:`COV_ENTRIES`) of every epoch
+    computed, or has no epochs (not kept).  ``cov_fail[t]`` must hold the trial's value before ``start[t]``.
+    """
+    n_tr, k = y.shape
+    keep = cov.shape[1] == k
     rows, cols, vals, nnz = prm.nz_rows[0], prm.nz_cols[0], prm.nz_vals[0], prm.nz_count[0]
     kap = np.zeros(3)
-    theta = np.empty((n_tr, k))
-    freq = np.empty((n_tr, k))
-    amp = np.empty((n_tr, k))
-    p_plus = np.empty((n_tr, k))
-    log_odds = np.empty((n_tr, k))
-    cn0_db = np.empty((n_tr, k))
-    cov_fail = np.full(n_tr, -1, dtype=np.int64)
     buf2 = np.zeros(prm.window)
     buf4 = np.zeros(prm.window)
     x = np.empty(3)
@@ -200,15 +222,30 @@ def mm_kf_kernel(y, prm):
     k1 = np.empty(3)
     dx = np.empty(3)
     for t in range(n_tr):
-        x[:] = prm.x0[t]
-        P[:, :] = prm.P0[t]
+        s = start[t]
+        if s >= k:
+            continue
         buf2[:] = 0.0
         buf4[:] = 0.0
         s2 = 0.0
         s4 = 0.0
         count = 0
         pos = 0
-        for i in range(k):
+        if s == 0:
+            x[:] = prm.x0[t]
+            P[:, :] = prm.P0[t]
+        else:
+            x[0], x[1], x[2] = amp[t, s - 1], theta[t, s - 1], freq[t, s - 1]
+            for m in range(6):
+                a, b = COV_ENTRIES[m]
+                P[a, b] = cov[t, s - 1, m]
+                P[b, a] = cov[t, s - 1, m]
+            if prm.adaptive:
+                for i in range(s):
+                    yr, yi = y[t, i].real, y[t, i].imag
+                    p2 = yr * yr + yi * yi
+                    pos, s2, s4, count = blocks.window_push(buf2, buf4, pos, s2, s4, count, p2, p2 * p2)
+        for i in range(s, k):
             if i > 0:
                 blocks.predict(x, P, xp, FP, prm.Q[t], kap, rows, cols, vals, nnz, False)
             yr, yi = y[t, i].real, y[t, i].imag
@@ -229,8 +266,10 @@ def mm_kf_kernel(y, prm):
             amp[t, i] = x[0]
             theta[t, i] = x[1]
             freq[t, i] = x[2]
+            if keep:
+                for m in range(6):
+                    cov[t, i, m] = P[COV_ENTRIES[m][0], COV_ENTRIES[m][1]]
             cn0_db[t, i] = 10.0 * math.log10(blocks.cn0_from_powers(x[0] * x[0], 2.0 * r, prm.ts))
-    return theta, freq, amp, p_plus, log_odds, cn0_db, cov_fail
 
 
 def _positive(value: float, arg: str) -> float:
@@ -381,12 +420,45 @@ class MMKF:
 
     # --- filters -----------------------------------------------------------------
 
-    def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
-        """Compiled loop (:func:`mm_kf_kernel`)."""
+    def run(self, y: np.ndarray, init: TrackInit, *, keep_covariance: bool = False) -> TrackOutput:
+        """Compiled loop (:func:`mm_kf_kernel`).  ``keep_covariance``: also return the posterior covariance of every
+        epoch, ``extras["covariance"]`` (trials, epochs, 6: :data:`COV_ENTRIES`), which :meth:`resume` needs."""
         y = self._prompts(y)
-        theta, freq, amp, p_plus, log_odds, cn0, cov_fail = mm_kf_kernel(y, self.params(y, init))
-        return TrackOutput(theta_d=theta, extras={"frequency_hz": freq, "amplitude": amp, "p_plus": p_plus, "log_odds": log_odds, "cn0_dbhz": cn0,
-                                                  "cov_fail_epoch": cov_fail})
+        *series, cov, cov_fail = mm_kf_kernel(y, self.params(y, init), keep_covariance)
+        return self._output(dict(zip(OUTPUTS, series)), cov if keep_covariance else None, cov_fail)
+
+    def resume(self, y: np.ndarray, init: TrackInit, previous: TrackOutput, previous_prior) -> TrackOutput:
+        """:meth:`run` with ``init``'s bit priors, given ``previous``, the output of a run on the same ``y`` and
+        initial state with the priors ``previous_prior`` (and ``keep_covariance``): each trial is filtered
+        again only from the first epoch whose prior changed, starting from ``previous``' posterior of the
+        epoch before; earlier epochs, and trials whose priors did not change, are copied.  The filter is
+        causal and a trial's arithmetic does not depend on the other trials, so the result has the bits of
+        ``run(y, init, keep_covariance=True)`` (``tests/test_mm_kf.py``); the fixed-point iterations of the
+        IODE-check receiver (:func:`scintrack.experiments.gps_receiver.run_mm`) change the priors of a
+        trial from some frame on, so most of each iteration is a copy (issue 14).
+        """
+        y = self._prompts(y)
+        n_tr, k = y.shape
+        cov_prev = previous.extras.get("covariance")
+        if cov_prev is None or cov_prev.shape != (n_tr, k, len(COV_ENTRIES)) or previous.theta_d.shape != (n_tr, k):
+            raise ValueError(f"previous must be an output of run(..., keep_covariance=True) on the same {n_tr} x {k} prompts")
+        old, new = (np.broadcast_to(np.asarray(1.0 if p is None else p, dtype=float), (n_tr, k)) for p in (previous_prior, init.bit_prior))  # None: pilot
+        changed = old != new
+        start = np.where(changed.any(axis=1), np.argmax(changed, axis=1), k).astype(np.int64)
+        outs = {name: np.array(previous.theta_d if name == "theta" else previous.extras[key], dtype=float) for name, key in OUTPUTS.items()}
+        cov = np.array(cov_prev, dtype=float)
+        fail = np.asarray(previous.extras["cov_fail_epoch"], dtype=np.int64)
+        cov_fail = np.where((fail >= 0) & (fail < start), fail, -1).astype(np.int64)
+        mm_kf_loop(y, self.params(y, init), start, *outs.values(), cov, cov_fail)
+        return self._output(outs, cov, cov_fail)
+
+    @staticmethod
+    def _output(outs: dict[str, np.ndarray], cov: np.ndarray | None, cov_fail: np.ndarray) -> TrackOutput:
+        extras = {key: outs[name] for name, key in OUTPUTS.items() if name != "theta"}
+        extras["cov_fail_epoch"] = cov_fail
+        if cov is not None:
+            extras["covariance"] = cov
+        return TrackOutput(theta_d=outs["theta"], extras=extras)
 
     def reference(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
         """Textbook GPB1 in numpy, one time loop vectorised over trials.
