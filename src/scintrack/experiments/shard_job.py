@@ -60,11 +60,14 @@ def single_result(run: Mapping[str, Any], *, lut: str, trace: str | None = None,
     """All trials of an (experiment, scenario) in one shard, merged: what ``tracking_shard`` + ``tracking_merge`` give.
 
     The shard goes through a NetCDF file and back first, exactly as between
-    the two jobs, so that the merge sees the same types and values.
+    the two jobs, so that the merge sees the same types and values.  Both write
+    that hand-off uncompressed (the result itself is compressed): zlib changes
+    no value, and the hand-off is written ~4x and read ~4x faster (a 40-MB
+    cycle-slip result 0.45 -> 0.10 s and 0.10 -> 0.025 s; issue 14).
     """
     shard = shard_result(run, range(int(run["n_trials"])), lut=lut, trace=trace, inputs=inputs, progress=progress)
     with tempfile.TemporaryDirectory(prefix="scintrack-shard-") as tmp:
         path = Path(tmp) / "shard-0.nc"
-        write_netcdf(shard, path)
+        write_netcdf(shard, path, compress=False)
         reread = open_dataset(path)  # loaded into memory, file closed
     return merged_result([reread], run, inputs)
