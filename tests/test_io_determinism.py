@@ -42,6 +42,27 @@ def test_netcdf_round_trip_keeps_content_hash(tmp_path):
     assert not list(path.parent.glob("*.part"))
 
 
+def test_lazy_open_reads_a_variable_when_used_with_the_eager_values(tmp_path):
+    """What the figure and table jobs open: nothing read at open, a variable read when used, and every
+    value (and the content hash) the eager open's; a missing file is the same one-line error."""
+    import pytest
+
+    from scintrack.io import DatasetReadError
+
+    path = tmp_path / "x.nc"
+    write_netcdf(csm_training_dataset(csm_training_params(CONFIG, 0.5)), path)
+    eager, lazy = open_dataset(path), open_dataset(path, lazy=True)
+    name = next(iter(lazy.data_vars))
+    assert not any(v._in_memory for v in lazy.data_vars.values())
+    lazy[name].values  # noqa: B018 - read it
+    assert lazy[name].variable._in_memory and not all(v._in_memory for v in lazy.data_vars.values())
+    assert content_hash(lazy) == content_hash(eager) == eager.attrs["content_sha256"]
+    xr.testing.assert_identical(lazy.load(), eager)
+    lazy.close()
+    with pytest.raises(DatasetReadError, match="no such file"):
+        open_dataset(tmp_path / "missing.nc", lazy=True)
+
+
 def test_content_hash_sees_a_single_changed_value():
     ds = xr.Dataset({"a": ("x", np.arange(5.0))})
     changed = ds.copy(deep=True)

@@ -181,8 +181,12 @@ class DatasetReadError(InputError):
     """A NetCDF file of the pipeline is missing, truncated or corrupt."""
 
 
-def open_dataset(path: str | os.PathLike) -> xr.Dataset:
+def open_dataset(path: str | os.PathLike, *, lazy: bool = False) -> xr.Dataset:
     """Open a NetCDF result fully into memory (and close the file).
+
+    ``lazy``: open it for reading instead, each variable read (and kept) when first used, and the file
+    open until the Dataset is closed or collected: the same values, for jobs that use a few variables
+    of large results (the figure and table rules; issue 14).
 
     A missing, truncated or corrupt file raises :class:`DatasetReadError`
     (one line naming the file and the fix: outputs of the pipeline are
@@ -191,6 +195,8 @@ def open_dataset(path: str | os.PathLike) -> xr.Dataset:
     import xarray as xr
 
     try:
+        if lazy:
+            return xr.open_dataset(path, engine="netcdf4")
         with xr.open_dataset(path, engine="netcdf4") as ds:
             return ds.load()
     except FileNotFoundError:

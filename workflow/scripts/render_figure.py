@@ -19,7 +19,7 @@ from scintrack.products import get
 sm = snakemake  # noqa: F821
 product = get(sm.params.product, sm.params.module)
 log = runlog.setup(sm.log[0], product.name)
-datasets = {name: open_dataset(path) for name, path in sm.input.items()}
+datasets = {name: open_dataset(path, lazy=True) for name, path in sm.input.items()}  # only the variables drawn are read
 fig = product.function(*datasets.values(), **dict(sm.params.kwargs))
 add_footer(fig, divergence_note(datasets.values()))  # diverged trials / non-estimable S4 of the tracking results read (guards)
 written = save_figure(fig, [sm.output.pdf, sm.output.png])

@@ -18,7 +18,7 @@ from scintrack.tables.common import join_notes, write_table
 sm = snakemake  # noqa: F821
 product = get(sm.params.product, sm.params.module)
 log = runlog.setup(sm.log[0], product.name)
-inputs = [open_dataset(path) for path in sm.input]
+inputs = [open_dataset(path, lazy=True) for path in sm.input]  # only the variables tabulated are read
 tables = product.function(*inputs)
 guard_note = divergence_note(inputs)  # diverged trials / non-estimable S4 of the tracking results read (guards)
 missing = {k for k in sm.output.keys()} - {f"{s}_{e}" for s in tables for e in ("csv", "md")}
