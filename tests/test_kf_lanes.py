@@ -1,9 +1,9 @@
 """The lane kernels of the discriminator KFs and the PLL give every trial the bits of the one-trial kernels.
 
-``kf_kernel`` (kf, akf, akf_ar), ``susi_kernel`` (susi_akf, susi_sakf) and
-``pll_kernel`` run ``blocks.LANES`` trials side by side; ``kf_kernel_scalar``,
-``susi_kernel_scalar`` and ``pll_kernel_scalar`` are the former
-one-trial-at-a-time kernels.  Every
+``kf_kernel`` (kf, akf, akf_ar), ``susi_kernel`` (susi_akf, susi_sakf),
+``pll_kernel`` and ``mm_kf_loop`` (mm_kf) run ``blocks.LANES`` trials side by side;
+``kf_kernel_scalar``, ``susi_kernel_scalar``, ``pll_kernel_scalar`` and
+``mm_kf_loop_scalar`` are the former one-trial-at-a-time kernels.  Every
 output is compared bit for bit (``uint64`` views: NaN positions, payloads and
 signs of zeros included) over batch sizes around the lane count, 10 ms and
 1 ms, and a NaN and an inf prompt (the covariance-fail / NaN paths).
@@ -20,6 +20,7 @@ from scintrack.trackers import blocks
 from scintrack.trackers.base import TrackInit, initial_state
 from scintrack.trackers.held_series import HeldSeries
 from scintrack.trackers.kf import DiscriminatorKF, kf_kernel, kf_kernel_scalar
+from scintrack.trackers.mm_kf import COV_ENTRIES, MMKF, mm_kf_loop, mm_kf_loop_scalar
 from scintrack.trackers.pll import PLL, pll_kernel, pll_kernel_scalar
 from scintrack.trackers.susi_kf import GainWeighting, SusiKF, susi_kernel, susi_kernel_scalar, susi_state
 
@@ -207,6 +208,43 @@ def test_pll_lane_kernel_is_the_scalar_kernel_bit_for_bit(discriminator, ts):
         lanes = pll_kernel(y[s], tr.params(_sub(init, s)))
         for j, (a, b) in enumerate(zip(lanes, scalar)):
             assert _bits_equal(a, b[s]), (discriminator, ts, n, j)
+
+
+def _mm_loop(loop, tr, y, init, start=None, previous=None):
+    """(theta, freq, amp, p_plus, log_odds, cn0, covariance, cov_fail) of ``loop`` from ``start`` (default 0),
+    on copies of ``previous``' arrays (a resume) or new ones."""
+    n, k = y.shape
+    arrays = [np.empty((n, k)) for _ in range(6)] + [np.empty((n, k, len(COV_ENTRIES))), np.full(n, -1, dtype=np.int64)]
+    if previous is not None:
+        arrays = [a.copy() for a in previous]
+    loop(y, tr.params(y, init), np.zeros(n, dtype=np.int64) if start is None else start, *arrays)
+    return arrays
+
+
+@pytest.mark.parametrize("r", ["m2m4", 0.3])
+@pytest.mark.parametrize("priors", ["pilot", "unknown", "mixed"])
+def test_mm_lane_loop_is_the_scalar_loop_bit_for_bit_from_epoch_0_and_resumed(priors, r):
+    """The MM filter's lanes against its one-trial loop: every output and the kept covariance, over the
+    batch sizes, with pilot, unknown (1/2) and mixed priors (0, 1, 1/2, 0.9: known bits of either sign
+    give the log-sum-exp's -inf branches), sliding-M2M4 and fixed R, from epoch 0 and resumed from a
+    different epoch per trial (0, inside the M2M4 start-up window, later, past the end)."""
+    y, init = SIGNALS[0.01]
+    rng = np.random.default_rng(11)
+    bits = {"pilot": None, "unknown": np.full(y.shape, 0.5), "mixed": rng.choice([0.0, 1.0, 0.5, 0.9], y.shape)}[priors]
+    full = TrackInit(init.phase, init.doppler_hz, init.rate_hz_s, bit_prior=bits)
+    tr = MMKF(ts=0.02, r=r, m2m4_window=40)
+    scalar = _mm_loop(mm_kf_loop_scalar, tr, y, full)
+    assert np.isnan(scalar[0][NAN_TRIAL, -1])
+    start = rng.choice([0, 1, 25, 200, y.shape[1] - 1, y.shape[1] + 5], N_ALL).astype(np.int64)
+    resumed = _mm_loop(mm_kf_loop_scalar, tr, y, full, start, scalar)
+    for n, s in _slices():
+        sub = TrackInit(init.phase[s], init.doppler_hz[s], init.rate_hz_s[s], bit_prior=None if bits is None else bits[s])
+        lanes = _mm_loop(mm_kf_loop, tr, y[s], sub)
+        for j, (a, b) in enumerate(zip(lanes, scalar)):
+            assert _bits_equal(a, b[s]), (priors, r, n, j)
+        again = _mm_loop(mm_kf_loop, tr, y[s], sub, start[s], [a[s] for a in scalar])
+        for j, (a, b) in enumerate(zip(again, resumed)):
+            assert _bits_equal(a, b[s]), ("resumed", priors, r, n, j)
 
 
 def test_lane_update_raises_on_a_zero_innovation_variance_as_the_scalar_one_does():
