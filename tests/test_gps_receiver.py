@@ -18,7 +18,7 @@ from scintrack.data.gps_jamming import gps_jamming_params
 from scintrack.data.gps_jamming_build import build
 from scintrack.experiments import gps_prompts as gp
 from scintrack.experiments.gps_channel_result import channel_result
-from scintrack.experiments.gps_receiver import channel, decoded_ephemeris, prior_sources
+from scintrack.experiments.gps_receiver import channel, decoded_ephemeris, held_1ms, prior_sources
 from scintrack.pipeline import params as P
 from scintrack.pipeline.project import project_file
 from scintrack.signals.gps import ephemeris, lnav, message
@@ -211,3 +211,10 @@ def test_bit_prediction_file_gives_the_channels_own_prediction_and_result(run, t
     shifted = ds.assign_attrs(duration_s=float(ds.attrs["duration_s"]) + 60.0)
     with pytest.raises(ValueError, match="rerun zhao_bit_prediction"):
         gbp.prediction_of(pred, shifted, k)
+
+
+@pytest.mark.parametrize(("start", "n_bits", "after"), [(7, 10, 5), (0, 10, 0), (19, 3, 18), (0, 1, 0)])
+def test_held_1ms_is_the_padded_repeat_of_the_20ms_values(start, n_bits, after):
+    v = np.random.default_rng(start).normal(size=(4, n_bits))
+    ref = np.pad(np.repeat(v, 20, axis=1), ((0, 0), (start, after)), mode="edge")
+    np.testing.assert_array_equal(held_1ms(v, start, start + 20 * n_bits + after), ref)

@@ -143,6 +143,19 @@ class PriorSource:
         return self._stream(decisions)
 
 
+def held_1ms(values: np.ndarray, start: int, n_epochs: int) -> np.ndarray:
+    """Per-sum values (trials, sums) of the 20-ms sums starting at epoch ``start``, held over their 1-ms epochs,
+    and the first and last held before and after them: (trials, n_epochs), written once (the values of
+    ``numpy.pad(numpy.repeat(values, 20, axis=1), ..., mode="edge")`` without its intermediate array)."""
+    n_tr, n_bits = values.shape
+    end = start + n_bits * gp.BIT_MS
+    out = np.empty((n_tr, n_epochs))
+    out[:, start:end].reshape(n_tr, n_bits, gp.BIT_MS)[...] = values[:, :, None]
+    out[:, :start] = values[:, :1]
+    out[:, end:] = values[:, -1:]
+    return out
+
+
 def run_mm(tracker, y20: np.ndarray, init: TrackInit, source: PriorSource):
     """The MM filter with the bit priors of ``source``; for ``mm_iode`` iterated to the sequential fixed point.
 
@@ -219,8 +232,12 @@ def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[
     spacing = float(rc["dll"]["spacing_chips"])
 
     def code_error(phase1: np.ndarray, freq1: np.ndarray) -> np.ndarray:
-        """DLL of one carrier tracker on the E/L columns of the same noise draws (phase/frequency at 1 ms)."""
-        return dll.run(noise, cn0, bits, phase1 - phi[None, :], freq1 - f_res[None, :], spacing_chips=spacing,
+        """DLL of one carrier tracker on the E/L columns of the same noise draws (phase/frequency at 1 ms).
+
+        Consumes its arguments: the errors are computed in their memory (the same subtraction, without two
+        new (trials, epochs) arrays and their page faults per call; issue 14)."""
+        phase_err, freq_err = np.subtract(phase1, phi, out=phase1), np.subtract(freq1, f_res, out=freq1)
+        return dll.run(noise, cn0, bits, phase_err, freq_err, spacing_chips=spacing,
                        bandwidth_hz=float(rc["dll"]["bandwidth_hz"]), integration_ms=int(rc["dll"]["integration_ms"]),
                        first_in_bit=first_in_bit, gain="fixed", cn0_ref_dbhz=float(ds.attrs["cn0_clean_dbhz"]))
 
@@ -261,9 +278,7 @@ def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[
         out[f"{variant}_bit_error"] = decisions != true_bit[None, :]
         out[f"{variant}_predicted"] = np.abs(priors - 0.5) > 0.25
         out[f"{variant}_prediction_wrong"] = out[f"{variant}_predicted"] & ((priors > 0.5) != (true_bit[None, :] == 0))
-        pad = ((0, 0), (start, n_epochs - start - n_bits * gp.BIT_MS))
-        phase1 = np.pad(np.repeat(m_out.theta_d, gp.BIT_MS, axis=1), pad, mode="edge")
-        freq1 = np.pad(np.repeat(m_out.extras["frequency_hz"], gp.BIT_MS, axis=1), pad, mode="edge")
+        phase1, freq1 = (held_1ms(v, start, n_epochs) for v in (m_out.theta_d, m_out.extras["frequency_hz"]))
         del m_out
         out[f"{variant}_code_error_chips"] = code_error(phase1, freq1)
         del phase1, freq1
