@@ -91,3 +91,22 @@ def test_s4_statistics_in_batches_equal_all_at_once():
     mean_b, frac_b = acc.result(10)
     assert mean.tobytes() == mean_b.tobytes() and med.tobytes() == med_b.tobytes() and frac.tobytes() == frac_b.tobytes()
     assert np.isnan(med[5]) and np.isfinite(med[2]) and frac[0] == pytest.approx(7 / 9)
+
+
+@pytest.mark.parametrize(("n", "k"), [(500, 5), (50, 2), (100, 1), (8, 2), (65, 2), (200, 3), (1000, 7), (31, 4)])
+def test_shards_are_contiguous_and_take_no_more_lane_blocks_than_needed(n, k):
+    """Shards deal the trials out in whole lane blocks when that takes fewer blocks (500 in 5 shards: 16 blocks,
+    not 5 x 4), else evenly (50 in 2: 25 + 25); every shard non-empty, together every trial once, in order."""
+    from scintrack.pipeline.params import shard_trials
+    from scintrack.trackers.lanes import LANES
+
+    cfg = {"experiments": {"x": {"trials": n, "shards": k}}}
+    shards = [shard_trials(cfg, "x", i) for i in range(k)]
+    assert [t for s in shards for t in s] == list(range(n)) and all(shards)
+    blocks = sum(-(-len(s) // LANES) for s in shards)
+    even = [round(i * n / k) for i in range(k + 1)]
+    even_blocks = sum(-(-(hi - lo) // LANES) for lo, hi in zip(even, even[1:]))
+    assert blocks == min(even_blocks, max(-(-n // LANES), k))
+    if blocks == even_blocks:
+        assert [len(s) for s in shards] == [hi - lo for lo, hi in zip(even, even[1:])]
+    assert (n, k) != (500, 5) or blocks == 16
