@@ -189,8 +189,10 @@ def shard_trials(config: Mapping[str, Any], name: str, shard: int) -> list[int]:
     The trials are dealt out as evenly as possible, in whole lane blocks of ``LANES`` (32) trials when that
     takes fewer of them: the compiled trackers run a lane block's trials side by side and cost as much for
     a block's last few trials as for 32, so 500 trials in 5 shards of 100 (3 blocks and 4 trials each) ran
-    20 blocks, and as 96, 96, 128, 96 and 84 trials they run 16 (issue 14).  No result depends on the
-    split: a trial's result is the same in any shard and the merge is exact (``tests/test_shard_batches.py``).
+    20 blocks, and as 96, 96, 128, 96 and 84 trials they run 16 (issue 14).  A trial's results are the
+    same bits in any shard; the merge adds the shards' per-epoch sums, so another split groups those
+    additions differently (in ``cycle_slips``: 1.5e-15 relative in ``sq_sum``, no count changed, every
+    table and figure the same; ``docs/performance.md``, twentieth round).
     """
     from ..trackers.lanes import LANES  # light (no numba)
 
