@@ -90,8 +90,8 @@ covariance, batches of 1-100 trials, pilot, unknown and mixed priors, both R
 forms, from epoch 0 and resumed).  Where one mode is impossible (a pilot, or a
 bit known to be +1 or -1) the mode weights are their exact values, 1 and 0,
 without the log-sum-exp's exponentials.  Measured (wall, best of 3, one
-process, 10 ms): unknown bits 500 x 5000 trials x epochs 3.09 (one trial at a
-time) -> 5.87 M filter-epochs/s; 64 x 20000 pilot 3.90 -> 10.3, known bits
+process, 10 ms): unknown bits 500 x 5000 trials x epochs, covariance kept,
+3.09 (one trial at a time) -> 5.87 M filter-epochs/s; 64 x 20000 pilot 3.90 -> 10.3, known bits
 3.79 -> 9.05, one third known 3.53 -> 7.64 (issue 14).  :meth:`MMKF.resume`
 restarts trials from the first changed bit prior (the IODE-check receiver's
 fixed-point iterations).
@@ -212,7 +212,7 @@ def mm_kf_kernel(y, prm, keep_covariance=False):
 
 @njit(cache=True)
 def mm_kf_loop_scalar(y, prm, start, theta, freq, amp, p_plus, log_odds, cn0_db, cov, cov_fail):
-    """One trial at a time: the bits :func:`mm_kf_loop` reproduces on lanes (``tests/test_mm_kf.py``).
+    """One trial at a time: the bits :func:`mm_kf_loop` reproduces on lanes (``tests/test_kf_lanes.py``).
 
     The filter of trial ``t`` over epochs ``start[t] ..`` into the output arrays (trials, epochs).
 
