@@ -110,3 +110,29 @@ def test_lut_lookup_returns_the_one_type():
     np.testing.assert_array_equal(moderate.phase.coefs, [1.9, -0.91])
     assert (severe.s4, severe.tau0, moderate.s4) == (0.9, 0.4, 0.5)
     np.testing.assert_array_equal(severe.amplitude.coefs, [1.8, -0.9, 0.05])
+
+
+@pytest.mark.parametrize("trend", ["n", "c"])
+def test_fits_are_autoregs_bit_for_bit(trend):
+    """fit_orders / fit_ar compute AutoReg's fit from statsmodels' pieces (one design per series): parameters,
+    sigma2, AIC and BIC equal AutoReg(x, order, trend, hold_back).fit()'s as uint64, for series of several
+    lengths, scales and offsets (a near-unit root, a white series, an AR(3) with a mean)."""
+    from statsmodels.tsa.ar_model import AutoReg
+
+    def bits(v):
+        return np.atleast_1d(np.asarray(v, dtype=float)).view(np.uint64)
+
+    for case in range(6):
+        rng = rng_for(3, "autoreg", case)
+        n = (30_000, 301, 3001, 1000, 12_345, 500)[case]
+        x = [simulate_ar(np.array([0.999]), 1e-4, n, rng), rng.normal(0.0, 3.0, n), simulate_ar(TRUE, 0.5, n, rng, const=0.2)][case % 3]
+        x = x * 10.0 ** (case - 3) + (0.0 if case % 2 else 1.5)
+        mine = fit_orders(x, 8, trend)
+        single = [fit_ar(x, 2, trend), fit_ar(x, 5, trend, hold_back=7)]
+        for fit, (order, hold) in zip(mine + single, [(o, 8) for o in range(1, 9)] + [(2, None), (5, 7)]):
+            ref = AutoReg(x, lags=order, trend=trend, hold_back=hold).fit()
+            params = np.asarray(ref.params, dtype=float)
+            want = (params[1:], params[0]) if trend == "c" else (params, 0.0)
+            assert np.array_equal(bits(fit.coefs), bits(want[0])) and bits(fit.const) == bits(want[1]), (case, order)
+            for name in ("sigma2", "aic", "bic"):
+                assert bits(getattr(fit, name)) == bits(getattr(ref, name)), (case, order, name)
