@@ -256,13 +256,15 @@ def test_a_functions_ufunc_form_has_its_own_cache_and_is_never_loaded_as_its_nji
             with open(idx, "rb") as f:
                 pickle.load(f)
                 keys[idx.rsplit("/", 1)[1]] = sorted(type(k[0]).__name__ for k in pickle.loads(f.read())[1])
-        print(json.dumps({"loaded": loaded, "njit": float(blocks.atan_variance(1e4, 0.01)),
+        unbuilt = sorted(k for k, v in vars(blocks).items() if type(v).__name__ == "_Ufunc" and v._ufunc is None)
+        print(json.dumps({"loaded": loaded, "unbuilt": unbuilt, "njit": float(blocks.atan_variance(1e4, 0.01)),
                           "ufunc": float(blocks.atan_variance_ufunc(np.array([1e4]), np.array([0.01]))[0]), "keys": keys}))
         """) % str(tmp_path / "cache")
     out = subprocess.run([sys.executable, "-c", use], env=env, capture_output=True, text=True, timeout=180)
     assert out.returncode == 0, (out.returncode, out.stderr[-2000:])  # -11: the element kernel called as the njit function
     got = json.loads(out.stdout)
     assert got["loaded"] >= 1 and got["njit"] == got["ufunc"] > 0
+    assert got["unbuilt"] == []  # every lazily built ufunc is built before the server forks (its loop wrapper is per process)
     py = f"py{sys.version_info[0]}{sys.version_info[1]}"
     assert got["keys"] == {f"blocks._atan_variance-{blocks_line()}.{py}.nbi": ["tuple"],
                            f"blocks._atan_variance_ufunc-{blocks_line()}.{py}.nbi": ["Signature"]}, got["keys"]

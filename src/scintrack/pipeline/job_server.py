@@ -131,6 +131,11 @@ def load_cached_kernels(modules: list[str]) -> int:
     loaded, so this never compiles: with an empty cache it loads nothing.  Each fork then calls the kernels
     without reading the cache (~3 ms per kernel and job).  Any numba internals this does not know: nothing
     is loaded and the jobs read the cache themselves, as without the server.
+
+    The lazily built ufuncs of :mod:`scintrack.trackers.blocks` (``_Ufunc``) are built here too (counted
+    in the number returned): their element kernels come from the cache (compiled once, here, when it is
+    empty), but numba compiles a ufunc's loop wrapper in every process that builds it, ~60 ms each, which
+    a job using one paid itself (42 builds in a full run, ~3 CPU-s; issue 14).
     """
     try:
         from numba.core.registry import CPUDispatcher
@@ -153,6 +158,14 @@ def load_cached_kernels(modules: list[str]) -> int:
     loaded, seen = 0, set()
     for name in sorted(names):
         for obj in list(getattr(sys.modules.get(name), "__dict__", {}).values()):
+            if callable(getattr(obj, "build", None)) and type(obj).__name__ == "_Ufunc" and id(obj) not in seen:
+                seen.add(id(obj))  # a lazily built ufunc (trackers.blocks): its loop wrapper is compiled per process
+                try:
+                    obj.build()
+                    loaded += 1
+                except Exception:  # noqa: BLE001 - builds (and fails, with its message) in its own job
+                    pass
+                continue
             if not isinstance(obj, CPUDispatcher) or id(obj) in seen:
                 continue
             seen.add(id(obj))

@@ -98,9 +98,14 @@ class _Ufunc:
         self.py, self.signatures, self._ufunc = py, signatures, None
         self.__doc__ = f"Array (ufunc) form of :func:`{py.__name__.lstrip('_')}`."
 
-    def __call__(self, *args):
+    def build(self) -> None:
+        """Build the ufunc now (its element kernel from the numba cache, its loop wrapper compiled: ~60 ms
+        that numba does not cache).  The job server builds every one before it forks (issue 14)."""
         if self._ufunc is None:
             self._ufunc = vectorize(self.signatures, cache=True)(_renamed(self.py, "_ufunc"))
+
+    def __call__(self, *args):
+        self.build()
         return self._ufunc(*args)
 
 
