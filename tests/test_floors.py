@@ -273,3 +273,28 @@ def test_floors_table_layout():
     gls = ["gls_quadratic", "gls_with_qd"]
     assert np.all(ds["rmse_offset_corrected"].sel(floor=gls) >= ds["rmse"].sel(floor=gls))
     assert np.isnan(ds["rmse_offset_corrected"].sel(floor="riccati_time_varying")).all()
+
+
+def test_solve_toeplitz_columns_are_scipys_bit_for_bit():
+    """The one-pass Levinson solve of floor (b) gives scipy.linalg.solve_toeplitz's columns as uint64."""
+    from scintrack.experiments.toeplitz import solve_toeplitz
+
+    rng = np.random.default_rng(4)
+    for n in (1, 2, 3, 50, 600):
+        lag = np.arange(n)
+        cols = [np.exp(-lag / 40.0) * np.cos(lag / 9.0) + (lag == 0) * 0.3,  # a CSM-like phase covariance plus noise
+                np.exp(-lag / 3.0) + (lag == 0) * 1e-3]
+        cols.append(0.999**lag + (lag == 0) * 1e-4)  # nearly a unit root: ill-conditioned, as the severe cells' phase
+        cols.append(fl.autocovariance(np.cumsum(rng.normal(size=4 * n + 8)))[:n] + (lag == 0) * 0.01)  # a sample one
+        for c in cols:
+            b = rng.normal(size=(n, 3)) * np.array([1.0, 1e3, 1e-3])
+            got = solve_toeplitz(c, b)
+            want = sl.solve_toeplitz(c, b, check_finite=False)
+            assert np.array_equal(got.view(np.uint64), want.view(np.uint64)), n
+            one = sl.solve_toeplitz(c, b[:, 1], check_finite=False)  # one column through scipy: the same bits again
+            assert np.array_equal(got[:, 1].view(np.uint64), one.view(np.uint64))
+    with pytest.raises(np.linalg.LinAlgError):
+        solve_toeplitz(np.array([1.0, 1.0, 1.0]), np.ones((3, 3)))  # singular leading minor of order 2
+    b2 = rng.normal(size=(50, 2))  # another width: scipy's own solve
+    c50 = np.exp(-np.arange(50) / 5.0)
+    assert np.array_equal(solve_toeplitz(c50, b2), sl.solve_toeplitz(c50, b2, check_finite=False))

@@ -450,7 +450,7 @@ def gls_error_variance(cov_s: np.ndarray, *, ts: float, cn0_dbhz: float, duratio
     ``"auto"`` (differenced O(N^2) route unless G is too ill-conditioned),
     ``"differenced"`` (that route or an error) or ``"dense"`` (Cholesky); see the module docstring.
     """
-    from scipy.linalg import solve_toeplitz
+    from .toeplitz import solve_toeplitz  # scipy.linalg.solve_toeplitz's values, its columns in one Levinson pass
 
     n = int(round(duration_s / ts))
     cov_s = np.asarray(cov_s, dtype=float)
@@ -460,10 +460,10 @@ def gls_error_variance(cov_s: np.ndarray, *, ts: float, cn0_dbhz: float, duratio
     t = np.arange(n) * ts
     k = np.arange(int(round(steady_start_s / ts)), n, stride)
     X = np.vander(t / duration_s, 3, increasing=True)  # scaled basis: same span, better conditioned
-    if q_jerk == 0:  # C = C_s + R_phi I is Toeplitz: Levinson-Durbin, O(n^2) for the 3 columns of X (issue 14)
+    if q_jerk == 0:  # C = C_s + R_phi I is Toeplitz: Levinson, O(n^2), the 3 columns of X in one pass (issue 14)
         col = cov_s[:n].copy()
         col[0] += phase_noise_variance(cn0_dbhz, ts)
-        V = np.linalg.inv(X.T @ solve_toeplitz(col, X, check_finite=False))
+        V = np.linalg.inv(X.T @ solve_toeplitz(col, X))
         var = np.einsum("ki,ij,kj->k", X[k], V, X[k])
     else:
         if method not in ("auto", "differenced", "dense"):
