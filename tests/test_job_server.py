@@ -315,3 +315,40 @@ def test_warm_snakemake_command_runs_in_a_fork_or_as_itself(tmp_path, hash_seed)
         assert seen["ppid"] == server_pid and seen["snakemake"] and seen["scintrack"] == []
     else:  # refused: the client became the program (its parent is this test process)
         assert seen["ppid"] == os.getpid() and not seen["snakemake"]
+
+
+def test_early_hook_hands_snakemakes_temporary_scripts_over_before_their_first_line(server, tmp_path):
+    """With the run's hook directory on PYTHONPATH (job_server.start), Python's start-up hands a script of
+    ``.snakemake/scripts/`` to the server before the script's first line runs (Snakemake's preamble imports
+    Snakemake there): the fork runs the whole script, its exit status comes back; any other script, or a job with
+    more threads, runs as itself; a sitecustomize the hook hides on sys.path still runs."""
+    proc, folder, addr = server
+    hook = job_server.write_early_hook(folder)
+    other = tmp_path / "other_site"
+    other.mkdir()
+    (other / "sitecustomize.py").write_text("import os\nos.environ['T_SHADOWED_RAN'] = '1'\n")
+    body = textwrap.dedent("""
+        import json, os, sys
+        FIRST_LINE_PID = os.getpid()  # the process that runs the script's first line
+        print(json.dumps({"pid": FIRST_LINE_PID, "ppid": os.getppid(), "numpy": "numpy" in sys.modules,
+                          "shadowed": os.environ.get("T_SHADOWED_RAN"), "argv": sys.argv[1:]}))
+        sys.exit(int(sys.argv[1]))
+        """)
+    scripts = tmp_path / ".snakemake" / "scripts"
+    scripts.mkdir(parents=True)
+    (scripts / "tmpabc.job.py").write_text(body)
+    (tmp_path / "plain.py").write_text(body)
+    pythonpath = os.pathsep.join([str(hook), str(other)])
+    runs = {}
+    for name, path, threads, code in (("snakemake", scripts / "tmpabc.job.py", "1", "0"), ("status", scripts / "tmpabc.job.py", "1", "4"),
+                                      ("plain", tmp_path / "plain.py", "1", "0"), ("threads", scripts / "tmpabc.job.py", "2", "0")):
+        env = {**_env(addr), "PYTHONPATH": pythonpath, **dict.fromkeys(job_client.THREAD_POOL_VARS, threads)}
+        out = subprocess.run([sys.executable, str(path), code], env=env, cwd=tmp_path, capture_output=True, text=True, timeout=60)
+        assert out.returncode == int(code), (name, out.stderr[-2000:])
+        runs[name] = (json.loads(out.stdout), out)
+    seen = runs["snakemake"][0]
+    assert seen["ppid"] == proc.pid and seen["numpy"] and seen["argv"] == ["0"], "the temporary script did not run in a fork"
+    assert runs["status"][0]["ppid"] == proc.pid  # and its exit status (4) came back: checked above
+    for name in ("plain", "threads"):
+        assert runs[name][0]["ppid"] != proc.pid and not runs[name][0]["numpy"], name
+        assert runs[name][0]["shadowed"] == "1", name  # the hidden sitecustomize ran in the job's own interpreter

@@ -495,7 +495,8 @@ def start(workflow, scripts: str, timeout_s: float = 120.0) -> str | None:
         return None
     proc, folder, addr = launched
     os.environ[job_client.ADDR_ENV] = addr
-    _RUNNING.update(proc=proc, folder=folder)
+    _RUNNING.update(proc=proc, folder=folder, pythonpath=os.environ.get("PYTHONPATH"))
+    os.environ["PYTHONPATH"] = os.pathsep.join([str(write_early_hook(folder)), *filter(None, [os.environ.get("PYTHONPATH")])])
     from . import benchmark_sampling
 
     benchmark_sampling.follow_forks(folder / PID_DIR)
@@ -503,6 +504,61 @@ def start(workflow, scripts: str, timeout_s: float = 120.0) -> str | None:
 
     atexit.register(stop)
     return addr
+
+
+EARLY_HOOK = """\
+# Written by scintrack.pipeline.job_server for one run (removed with the server's folder): a Snakemake script
+# job of this run is handed to the run's job server before Snakemake's preamble imports Snakemake (~60 ms).
+import os as _os
+import sys as _sys
+
+
+def _scintrack_early():
+    argv0 = _sys.argv[0] if _sys.argv else ""
+    if "/.snakemake/scripts/" not in argv0.replace(_os.sep, "/") or _os.environ.get("OMP_NUM_THREADS", "1") != "1":
+        return
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("_scintrack_job_client", {client!r})  # the standard library only
+    client = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(client)
+    client.delegate(1)  # exits with the job's status when a fork of the server ran it; returns otherwise
+
+
+def _shadowed():  # the sitecustomize this one hides on sys.path, if there is one
+    import importlib.machinery
+    import importlib.util
+
+    here = _os.path.dirname(_os.path.abspath(__file__))
+    spec = importlib.machinery.PathFinder.find_spec("sitecustomize", [p for p in _sys.path if _os.path.abspath(p or ".") != here])
+    if spec is not None and spec.loader is not None:
+        spec.loader.exec_module(importlib.util.module_from_spec(spec))
+
+
+try:
+    _scintrack_early()
+except Exception:  # noqa: BLE001 - the job then goes the usual way (the script's own delegate())
+    pass
+_shadowed()
+"""
+
+
+def write_early_hook(folder: Path) -> Path:
+    """Write :data:`EARLY_HOOK` as ``<folder>/early/sitecustomize.py``; returns that directory (for ``PYTHONPATH``).
+
+    Snakemake runs a ``script:`` job as ``python <its temporary script>``, whose preamble imports Snakemake to
+    unpickle the job's ``snakemake`` object before the script's first line (:func:`.job_client.delegate`) can
+    hand the job over: ~60 ms of CPU per job, ~15 CPU-s of a full run.  With this directory on the jobs'
+    ``PYTHONPATH`` (:func:`start`), Python's start-up (``site``) hands a job to the server first: the same
+    :func:`.job_client.delegate` (its file loaded alone: the standard library only), and the fork runs the
+    whole temporary script, preamble included, exactly as before.  Only Snakemake's temporary scripts
+    (``.snakemake/scripts/``) of one-thread jobs are handed over; anything else, or a refusal, goes on as
+    without the hook.  A ``sitecustomize`` that this one hides on ``sys.path`` still runs.
+    """
+    early = folder / "early"
+    early.mkdir(exist_ok=True)
+    (early / "sitecustomize.py").write_text(EARLY_HOOK.format(client=str(Path(job_client.__file__).resolve())))
+    return early
 
 
 def launch(scripts: str, timeout_s: float = 120.0, preload: list[str] | None = None, env: dict[str, str] | None = None,
@@ -555,10 +611,16 @@ def _read_line(fd: int, timeout_s: float) -> str:
 
 
 def stop() -> None:
-    """End the server of this run (its children first), remove its folder and the jobs' address."""
+    """End the server of this run (its children first), remove its folder, the jobs' address and early hook."""
     proc = _RUNNING.pop("proc", None)
     folder = _RUNNING.pop("folder", None)
     os.environ.pop(job_client.ADDR_ENV, None)
+    if "pythonpath" in _RUNNING:
+        previous = _RUNNING.pop("pythonpath")
+        if previous is None:
+            os.environ.pop("PYTHONPATH", None)
+        else:
+            os.environ["PYTHONPATH"] = previous
     if proc is None:
         return
     from . import benchmark_sampling
