@@ -346,6 +346,11 @@ def test_early_hook_hands_snakemakes_temporary_scripts_over_before_their_first_l
         out = subprocess.run([sys.executable, str(path), code], env=env, cwd=tmp_path, capture_output=True, text=True, timeout=60)
         assert out.returncode == int(code), (name, out.stderr[-2000:])
         runs[name] = (json.loads(out.stdout), out)
+    killed = scripts / "tmpdef.killed.py"  # killed (SIGKILL) in the fork: the job ends so, and never runs a second time
+    killed.write_text(f"import os, signal\nif os.getppid() == {proc.pid}:\n    os.kill(os.getpid(), signal.SIGKILL)\nprint('ran again')\n")
+    out = subprocess.run([sys.executable, str(killed)], env={**_env(addr), "PYTHONPATH": pythonpath}, cwd=tmp_path, capture_output=True,
+                         text=True, timeout=60)
+    assert out.returncode == -signal.SIGKILL and "ran again" not in out.stdout, (out.returncode, out.stdout, out.stderr[-2000:])
     seen = runs["snakemake"][0]
     assert seen["ppid"] == proc.pid and seen["numpy"] and seen["argv"] == ["0"], "the temporary script did not run in a fork"
     assert runs["status"][0]["ppid"] == proc.pid  # and its exit status (4) came back: checked above

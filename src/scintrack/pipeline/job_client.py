@@ -90,7 +90,8 @@ def _exit_like(status: dict) -> None:
     sys.stderr.flush()
     sig = status.get("signal")
     if sig:
-        signal.signal(sig, signal.SIG_DFL)
+        if sig not in (signal.SIGKILL, signal.SIGSTOP):  # those two cannot be caught, nor their handler set
+            signal.signal(sig, signal.SIG_DFL)
         os.kill(os.getpid(), sig)
     os._exit(int(status.get("code", 1)))
 

@@ -517,12 +517,19 @@ def _scintrack_early():
     argv0 = _sys.argv[0] if _sys.argv else ""
     if "/.snakemake/scripts/" not in argv0.replace(_os.sep, "/") or _os.environ.get("OMP_NUM_THREADS", "1") != "1":
         return
-    import importlib.util
+    try:
+        import importlib.util
 
-    spec = importlib.util.spec_from_file_location("_scintrack_job_client", {client!r})  # the standard library only
-    client = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(client)
-    client.delegate(1)  # exits with the job's status when a fork of the server ran it; returns otherwise
+        spec = importlib.util.spec_from_file_location("_scintrack_job_client", {client!r})  # the standard library only
+        client = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(client)
+    except Exception:  # noqa: BLE001 - the job goes the usual way (the script's own delegate())
+        return
+    try:
+        client.delegate(1)  # exits with the job's status when a fork of the server ran it; returns when refused
+    except BaseException as exc:  # noqa: BLE001 - after a hand-off: end here, never run the job a second time
+        _sys.stderr.write(f"error: the job server's hand-over failed ({{type(exc).__name__}}: {{exc}}); run again\\n")
+        _os._exit(1)
 
 
 def _shadowed():  # the sitecustomize this one hides on sys.path, if there is one
@@ -535,10 +542,7 @@ def _shadowed():  # the sitecustomize this one hides on sys.path, if there is on
         spec.loader.exec_module(importlib.util.module_from_spec(spec))
 
 
-try:
-    _scintrack_early()
-except Exception:  # noqa: BLE001 - the job then goes the usual way (the script's own delegate())
-    pass
+_scintrack_early()
 _shadowed()
 """
 
