@@ -158,7 +158,7 @@ def load_cached_kernels(modules: list[str]) -> int:
     loaded, seen = 0, set()
     for name in sorted(names):
         for obj in list(getattr(sys.modules.get(name), "__dict__", {}).values()):
-            if callable(getattr(obj, "build", None)) and type(obj).__name__ == "_Ufunc" and id(obj) not in seen:
+            if type(obj).__name__ == "_Ufunc" and id(obj) not in seen:
                 seen.add(id(obj))  # a lazily built ufunc (trackers.blocks): its loop wrapper is compiled per process
                 try:
                     obj.build()

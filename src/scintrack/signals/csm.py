@@ -229,11 +229,6 @@ def trial_chunks(n_trials: int, n_sub: int, budget_bytes: int | None = None) -> 
     return row_blocks(n_trials, 16 * max(n_sub, 1), budget_bytes)
 
 
-def row_blocks_budget() -> int:
-    """:data:`.row_blocks.CHUNK_BYTES`, read at call time (the tests change it)."""
-    return _row_blocks.CHUNK_BYTES
-
-
 def filter_chunks(n_trials: int, n_sub: int) -> list[tuple[int, int]]:
     """Row blocks for the diffuse field's white noise and its filter: :func:`trial_chunks`, but at least
     ``iir.GROUP`` rows (:mod:`.iir`), which the compiled filter runs side by side (~2.5x faster than one at a time;
@@ -243,7 +238,7 @@ def filter_chunks(n_trials: int, n_sub: int) -> list[tuple[int, int]]:
     from .iir import GROUP
 
     row = 16 * max(n_sub, 1)
-    return row_blocks(n_trials, row, max(row_blocks_budget(), GROUP * row))
+    return row_blocks(n_trials, row, max(_row_blocks.CHUNK_BYTES, GROUP * row))  # the budget read at call time
 
 
 @dataclass(frozen=True)
