@@ -32,10 +32,21 @@ AR = {1: [0.95], 2: [1.6, -0.65], 3: [2.1, -1.5, 0.38]}
 
 
 def _bits_equal(a, b) -> bool:
+    """Every bit equal, except that a NaN equals any NaN.
+
+    Where two NaNs meet in one operation (a NaN phase plus a NaN frequency step, after the
+    inf prompt) x86 returns the first operand's, and LLVM may swap the operands of an
+    add or multiply, as it did in the PLL's vector code once the discriminator's
+    arithmetic (:mod:`scintrack.trackers.trig`) made NaNs of either sign: the sign of
+    such a NaN is set by neither IEEE 754 nor LLVM.  Everything else is compared bit for bit.
+    """
     a, b = np.asarray(a), np.asarray(b)
     if a.shape != b.shape or a.dtype != b.dtype:
         return False
-    return np.array_equal(a.view(np.uint64), b.view(np.uint64)) if a.dtype == np.float64 else np.array_equal(a, b)
+    if a.dtype != np.float64:
+        return np.array_equal(a, b)
+    nan_a, nan_b = np.isnan(a), np.isnan(b)
+    return np.array_equal(nan_a, nan_b) and np.array_equal(a[~nan_a].view(np.uint64), b[~nan_b].view(np.uint64))
 
 
 def _signal(ts: float, k: int, cn0: float = 30.0, seed: int = 0):

@@ -45,7 +45,7 @@ array-valued formulas used by the vectorised numpy estimators
 (:mod:`scintrack.estimators`) are ``numba.vectorize`` ufuncs compiled from the
 *same* Python function (``*_ufunc`` below), so no formula is written twice.
 
-Lanes (last section): ``LANES`` trials side by side as one SIMD vector per
+Lanes (:mod:`.simd`, used from the middle of this module on): ``LANES`` trials side by side as one SIMD vector per
 matrix entry (``Lanes``, an LLVM ``<LANES x double>``), for kernels that run
 trials in blocks (the AEKF-AR).  Its operators are IEEE per lane exactly as
 numba lowers the scalar ones, so the scalar blocks (``m2m4_split``,
@@ -56,8 +56,10 @@ The discriminator KFs, the Susi KF PLLs and the PLL run on lanes too (issue 14,
 third round), with the lane forms of the blocks above: :func:`sparse_predict_lanes`
 (:func:`predict`), :func:`innovation_terms_lanes`, :func:`scalar_update_lanes`,
 :func:`weighted_scalar_update_lanes`, :func:`atan2_discriminator_lanes` and
-:func:`atan_discriminator_lanes` (the scalar discriminator called per lane: the
-same libm calls; with the gather of the epoch's prompts: :func:`prompt_discriminator_lanes`),
+:func:`atan_discriminator_lanes` (the scalar discriminator compiled for Lanes: its
+sine, cosine and arctangent are :mod:`.trig`'s, plain IEEE arithmetic, since the
+twenty-second round of issue 14; with the gather of the epoch's prompts:
+:func:`prompt_discriminator_lanes`),
 :func:`m2m4_lanes` (on :func:`window_push_lanes`), and
 :func:`lanes_any_zero` (the scalar division's ZeroDivisionError on any lane);
 the trial of each lane of a block of trials: :func:`lane_trials`.
@@ -66,16 +68,15 @@ the trial of each lane of a block of trials: :func:`lane_trials`.
 from __future__ import annotations
 
 import math
-import operator
 
 import numpy as np
-from llvmlite import ir as llvm_ir
-from numba import njit, types, vectorize
-from numba.core import cgutils
-from numba.core.errors import TypingError
-from numba.extending import intrinsic, models, overload, register_model
+from numba import njit, vectorize
 
+from . import trig
 from .lanes import LANES
+from .simd import lane_load, lane_splat, lane_store, lane_where_less, lanes_any_zero, lanes_empty, select_less
+
+__all__ = ["LANES", "lane_load", "lane_splat", "lane_store", "lanes_empty", "lanes_any_zero", "select_less"]  # re-exported: the kernels' one import
 
 _F8_2 = ["float64(float64, float64)"]
 _F8_3 = ["float64(float64, float64, float64)"]
@@ -136,8 +137,8 @@ atan_variance_ufunc = _Ufunc(_atan_variance, _F8_2)
 
 
 def _atan2_discriminator(yr, yi, phase):
-    c_, s_ = math.cos(phase), math.sin(phase)
-    return math.atan2(yi * c_ - yr * s_, yr * c_ + yi * s_)
+    s_, c_ = trig.sincos(phase)
+    return trig.atan2(yi * c_ - yr * s_, yr * c_ + yi * s_)
 
 
 atan2_discriminator = njit(cache=True)(_atan2_discriminator)
@@ -145,13 +146,11 @@ atan2_discriminator_ufunc = _Ufunc(_atan2_discriminator, _F8_3)
 
 
 def _atan_discriminator(yr, yi, phase):
-    """Costas (two-quadrant) ``atan(Q/I)``: insensitive to the data bit, error in (-pi/2, pi/2]."""
-    c_, s_ = math.cos(phase), math.sin(phase)
+    """Costas (two-quadrant) ``atan(Q/I)``: insensitive to the data bit, error in [-pi/2, pi/2] (``I = 0``: +-pi/2)."""
+    s_, c_ = trig.sincos(phase)
     i_ = yr * c_ + yi * s_
     q_ = yi * c_ - yr * s_
-    if i_ == 0.0:
-        return 0.5 * math.pi if q_ >= 0.0 else -0.5 * math.pi
-    return math.atan(q_ / i_)
+    return trig.atan(q_, i_)
 
 
 atan_discriminator = njit(cache=True)(_atan_discriminator)
@@ -462,229 +461,6 @@ def weighted_scalar_update(x, P, PH, H, R, nu, w):
             P[a, b] -= g * PH[a] * PH[b]
 
 
-# --- lanes: LANES trials side by side, as SIMD vectors (the AEKF-AR kernel) -----------
-#
-# The arrays of the lane blocks carry the trial on their LAST axis: x (n, LANES),
-# P (n, n, LANES), per-trial scalars (LANES,), all C-contiguous float64.  The
-# LANES values of one entry form one ``Lanes`` value, an LLVM ``<LANES x double>``
-# vector (LANES = 32: four AVX-512 registers, eight AVX2 ones; LLVM splits it),
-# loaded (:func:`lane_load`),
-# combined with + - * / and unary - (IEEE fadd, fsub, fmul, fdiv and numba's
-# ``-0.0 - v`` negation on every lane, without fast-math flags: no FMA
-# contraction, no reassociation) and stored (:func:`lane_store`).  Each lane so
-# evaluates exactly the scalar expression, in the same order: its bits are those
-# of the one-trial formula.  (Why explicit vectors: numba leaves LLVM's SLP
-# vectoriser off and cannot tell LLVM that the arrays of a loop over lanes do not
-# alias, so a plain loop over the lanes stays scalar or pays run-time
-# alias checks on every matrix entry, several times slower.)  32 lanes: the
-# AEKF-AR ran 11, 16, 20 and 20 M filter-epochs/s with 8, 16, 32 and 64 (the
-# per-vector overheads amortise up to 32; 64 only adds padding and cache).
-
-# LANES (32) is defined in .lanes, apart from numba: light code sizes its batches by it
-
-
-class Lanes(types.Type):
-    """LANES float64 values, one per trial (an LLVM vector; only inside compiled code)."""
-
-    def __init__(self):
-        super().__init__(name=f"Lanes{LANES}xf64")
-
-
-lanes_t = Lanes()
-_VEC = llvm_ir.VectorType(llvm_ir.DoubleType(), LANES)
-
-
-@register_model(Lanes)
-class _LanesModel(models.PrimitiveModel):
-    def __init__(self, dmm, fe_type):
-        super().__init__(dmm, fe_type, _VEC)
-
-
-def _check_array(arr):
-    if not (isinstance(arr, types.Array) and arr.dtype == types.float64 and arr.layout == "C"):
-        raise TypingError(f"lane_load / lane_store need a C-contiguous float64 array, got {arr}")
-
-
-def _lane_ptr(context, builder, aty, arr, offset):
-    data = context.make_array(aty)(context, builder, arr).data
-    return builder.bitcast(builder.gep(data, [offset]), _VEC.as_pointer())
-
-
-@intrinsic
-def lane_load(typingctx, arr, offset):
-    """The LANES values ``arr.flat[offset : offset + LANES]`` (``offset`` in elements, unchecked)."""
-    _check_array(arr)
-
-    def codegen(context, builder, sig, args):
-        return builder.load(_lane_ptr(context, builder, sig.args[0], args[0], args[1]), align=8)
-
-    return lanes_t(arr, offset), codegen
-
-
-@intrinsic
-def lane_store(typingctx, arr, offset, value):
-    """``arr.flat[offset : offset + LANES] = value`` (unchecked)."""
-    _check_array(arr)
-
-    def codegen(context, builder, sig, args):
-        builder.store(args[2], _lane_ptr(context, builder, sig.args[0], args[0], args[1]), align=8)
-        return context.get_dummy_value()
-
-    return types.none(arr, offset, lanes_t), codegen
-
-
-_I32 = llvm_ir.IntType(32)
-
-
-def _splat(builder, value):
-    undef = llvm_ir.Constant(_VEC, None)
-    one = builder.insert_element(undef, value, llvm_ir.Constant(_I32, 0))
-    return builder.shuffle_vector(one, undef, llvm_ir.Constant(llvm_ir.VectorType(_I32, LANES), [0] * LANES))
-
-
-def _is_operand(ty):
-    return ty == lanes_t or isinstance(ty, (types.Float, types.Integer))
-
-
-def _lanes_args(*tys):
-    """True when the arguments are Lanes and plain numbers, at least one Lanes."""
-    return any(t == lanes_t for t in tys) and all(_is_operand(t) for t in tys)
-
-
-def _as_lanes(context, builder, ty, value):
-    """A Lanes value as is; a number as numba's scalar arithmetic converts it (to float64), on every lane."""
-    return value if ty == lanes_t else _splat(builder, context.cast(builder, value, ty, types.float64))
-
-
-@intrinsic
-def lane_splat(typingctx, value):
-    """``value`` (a number, converted to float64) on every lane."""
-    if _is_operand(value) and value != lanes_t:
-        return lanes_t(value), lambda context, builder, sig, args: _as_lanes(context, builder, sig.args[0], args[0])
-
-
-def _lanes_intrinsic(n_args, emit):
-    """An intrinsic on Lanes of ``n_args`` arguments (numbers broadcast): ``emit(builder, *vectors)``."""
-
-    def typer(*args):
-        if _lanes_args(*args):
-
-            def codegen(context, builder, sig, vals):
-                return emit(builder, *(_as_lanes(context, builder, t, v) for t, v in zip(sig.args, vals)))
-
-            return lanes_t(*args), codegen
-        return None
-
-    if n_args == 1:
-        return intrinsic(lambda typingctx, a: typer(a))
-    if n_args == 2:
-        return intrinsic(lambda typingctx, a, b: typer(a, b))
-    return intrinsic(lambda typingctx, a, b, c, d: typer(a, b, c, d))
-
-
-def _overload_lanes(pyfunc, op, n_args):
-    if n_args == 1:
-
-        @overload(pyfunc)
-        def _impl1(a):
-            if _lanes_args(a):
-                return lambda a: op(a)
-
-    else:
-
-        @overload(pyfunc)
-        def _impl2(a, b):
-            if _lanes_args(a, b):
-                return lambda a, b: op(a, b)
-
-
-def _llvm_intrinsic(name):
-    def emit(builder, *vals):
-        fnty = llvm_ir.FunctionType(_VEC, [_VEC] * len(vals))
-        return builder.call(cgutils.get_or_insert_function(builder.module, fnty, f"{name}.v{LANES}f64"), vals)
-
-    return emit
-
-
-# IEEE operations on every lane, exactly as numba lowers them on one float64 (never fast-math):
-# a + b, a - b, a * b, a / b (a zero divisor is the caller's check), -a (-0.0 - a,
-# mathimpl.negate_real), max(a, b) = (b if b > a else a), min(a, b) = (b if b < a else a)
-# (ordered compares, builtins.do_minmax), math.sqrt and abs (llvm.sqrt, llvm.fabs).  So the
-# scalar blocks' Python functions compile unchanged for Lanes arguments (one formula).
-for _pyfunc, _n, _emit in (
-    (operator.add, 2, lambda b, x, y: b.fadd(x, y)),
-    (operator.sub, 2, lambda b, x, y: b.fsub(x, y)),
-    (operator.mul, 2, lambda b, x, y: b.fmul(x, y)),
-    (operator.truediv, 2, lambda b, x, y: b.fdiv(x, y)),
-    (operator.neg, 1, lambda b, x: b.fsub(llvm_ir.Constant(_VEC, [-0.0] * LANES), x)),
-    (max, 2, lambda b, x, y: b.select(b.fcmp_ordered(">", y, x), y, x)),
-    (min, 2, lambda b, x, y: b.select(b.fcmp_ordered("<", y, x), y, x)),
-    (math.sqrt, 1, _llvm_intrinsic("llvm.sqrt")),
-    (abs, 1, _llvm_intrinsic("llvm.fabs")),
-):
-    _overload_lanes(_pyfunc, _lanes_intrinsic(_n, _emit), _n)
-
-
-@overload(operator.pow)
-def _lanes_pow(a, b):
-    """``a ** k``, k a literal integer >= 0, by numba's unrolled squaring (cpython.numbers.static_power_impl)."""
-    if a == lanes_t and isinstance(b, types.IntegerLiteral) and b.literal_value >= 0:
-        k = b.literal_value
-
-        def impl(a, b):
-            res = lane_splat(1.0)
-            val = a
-            e = k
-            while e != 0:
-                if e & 1:
-                    res = res * val
-                e >>= 1
-                val = val * val
-            return res
-
-        return impl
-
-
-#: ``where(a < b, x, y)`` on every lane (ordered compare); numbers are broadcast
-lane_where_less = _lanes_intrinsic(4, lambda b, a_, b_, x, y: b.select(b.fcmp_ordered("<", a_, b_), x, y))
-
-
-def select_less(a, b, x, y):
-    """``x if a < b else y`` on numbers, and lane by lane on Lanes (:data:`lane_where_less`).
-
-    Ordered compare: a NaN ``a`` or ``b`` selects ``y``.  The one lane-wise
-    select of the scalar blocks (a block that must compile for both numbers
-    and Lanes cannot branch per lane), e.g. the "not estimable" NaN of
-    :func:`s4_corrected` and the AEKF-AR's hold of the last estimable S4.
-    """
-    return x if a < b else y
-
-
-@overload(select_less)
-def _select_less(a, b, x, y):
-    if _lanes_args(a, b, x, y):
-        return lambda a, b, x, y: lane_where_less(a, b, x, y)
-    if all(isinstance(t, (types.Float, types.Integer)) for t in (a, b, x, y)):
-        return lambda a, b, x, y: x if a < b else y
-    return None
-
-
-@njit(cache=True)
-def lanes_empty(shape):
-    """``np.empty(shape)`` (float64, C order) starting on a 64-byte boundary.
-
-    numba aligns arrays to 32 bytes; a lane vector (LANES x 8 bytes, a multiple
-    of 64) that straddles cache lines costs a second access on every load and
-    store (measured: ar_predict 60 % slower).
-    """
-    size = 1
-    for s in shape:
-        size *= s
-    buf = np.empty(size + 8)
-    off = (64 - buf.ctypes.data % 64) % 64 // 8
-    return buf[off : off + size].reshape(shape)
-
-
 # rows of the per-set coefficient table of ar_predict (ar_coefficients)
 C_F01, C_F02, C_F12 = 0, 1, 2  # F_d[0, 1], F_d[0, 2], F_d[1, 2]
 C_QD = 3  # Q_d, 9 entries row-major
@@ -862,20 +638,15 @@ def iq_update(x, P, ph0, ph1, sc, A, ir, r, yr, yi):
     if (not 3 < ir < n or x.shape != (n, L) or P.shape != (n, n, L) or ph0.shape != (n, L) or ph1.shape != (n, L) or sc.shape != (7, L)
             or r.shape != (L,) or yr.shape != (L,) or yi.shape != (L,)):
         raise ValueError("iq_update: arrays must be x, ph0, ph1 (n, LANES), P (n, n, LANES), sc (7, LANES), r, yr, yi (LANES,), 3 < ir < n")
-    for ln in range(L):  # per lane: the linearisation point (libm cos and sin)
-        th = x[0, ln] + x[3, ln]
-        rho = x[ir, ln]
-        c_, s_ = math.cos(th), math.sin(th)
-        sc[0, ln] = -A * rho * s_  # a0
-        sc[1, ln] = A * rho * c_  # a1
-        sc[2, ln] = A * c_  # b0
-        sc[3, ln] = A * s_  # b1
-        sc[4, ln] = yr[ln] - A * rho * c_  # e0
-        sc[5, ln] = yi[ln] - A * rho * s_  # e1
-    a0 = lane_load(sc, 0)
-    a1 = lane_load(sc, L)
-    b0 = lane_load(sc, 2 * L)
-    b1 = lane_load(sc, 3 * L)
+    # the linearisation point theta_d + theta_s (trig.sincos on the lane vector)
+    rho = lane_load(x, ir * L)
+    s_, c_ = trig.sincos(lane_load(x, 0) + lane_load(x, 3 * L))
+    a0 = -A * rho * s_
+    a1 = A * rho * c_
+    b0 = A * c_
+    b1 = A * s_
+    lane_store(sc, 4 * L, lane_load(yr, 0) - A * rho * c_)  # e0
+    lane_store(sc, 5 * L, lane_load(yi, 0) - A * rho * s_)  # e1
     for a in range(n):
         o = a * n * L
         u = lane_load(P, o) + lane_load(P, o + 3 * L)
@@ -911,8 +682,8 @@ def iq_update(x, P, ph0, ph1, sc, A, ir, r, yr, yi):
 
 def iq_update_flops(n: int) -> int:
     """Floating-point operations of one :func:`iq_update` per trial, counted from its code (3 of them
-    divisions; cos and sin, one libm call each, not counted)."""
-    point = 1 + 3 + 2 + 1 + 1 + 3 + 3  # th, a0 (with -A), a1, b0, b1, e0, e1
+    divisions), :func:`.trig.sincos` included (:data:`.trig.SINCOS_OPS`)."""
+    point = 1 + trig.SINCOS_OPS + 3 + 2 + 1 + 1 + 3 + 3  # th, sin and cos, a0 (with -A), a1, b0, b1, e0, e1
     ph = 7 * n  # u, P H^T (two columns)
     s = 2 + 4 + 3 + 4 + 3 + 4  # hu0, hu1, s00, s01, s11, det, S^-1 (3 divisions, one negation)
     gain = 10 * n  # K (two columns) and x += K e
@@ -973,22 +744,7 @@ def window_push_lanes(b1, b2, pos, s1, s2, count, v1, v2):
 # trials in blocks like the AEKF-AR.  Per lane every operation is the scalar block's, in
 # the same order and with the same operands (the zero entries of H and the unit entries
 # of F included: an inf or NaN meets them as it did), so each lane gets the bits of the
-# scalar call; the transcendental functions (cos, sin, atan2, atan) are called per lane,
-# the same libm function as the scalar block.
-
-
-@intrinsic
-def lanes_any_zero(typingctx, v):
-    """True when some lane of ``v`` (Lanes) is +-0: the zero-divisor test of numba's scalar division, on every lane."""
-    if v == lanes_t:
-
-        def codegen(context, builder, sig, args):
-            mask = builder.fcmp_ordered("==", args[0], llvm_ir.Constant(_VEC, [0.0] * LANES))
-            bits = builder.bitcast(mask, llvm_ir.IntType(LANES))
-            return builder.icmp_unsigned("!=", bits, llvm_ir.Constant(llvm_ir.IntType(LANES), 0))
-
-        return types.boolean(v), codegen
-    return None
+# scalar call, the sine, cosine and arctangents (:mod:`.trig`) included.
 
 
 @njit(cache=True)
@@ -1097,22 +853,20 @@ def weighted_scalar_update_lanes(x, P, PH, H, R, nu, w):
 
 @njit(cache=True)
 def atan2_discriminator_lanes(yr, yi, phase, out):
-    """``out[ln] = atan2_discriminator(yr[ln], yi[ln], phase[ln])`` on every lane (libm per lane); arrays (LANES,)."""
+    """``out[ln] = atan2_discriminator(yr[ln], yi[ln], phase[ln])`` on every lane (one SIMD evaluation); arrays (LANES,)."""
     L = LANES
     if yr.shape != (L,) or yi.shape != (L,) or phase.shape != (L,) or out.shape != (L,):
         raise ValueError("atan2_discriminator_lanes: arrays must be (LANES,)")
-    for ln in range(L):
-        out[ln] = atan2_discriminator(yr[ln], yi[ln], phase[ln])
+    lane_store(out, 0, atan2_discriminator(lane_load(yr, 0), lane_load(yi, 0), lane_load(phase, 0)))
 
 
 @njit(cache=True)
 def atan_discriminator_lanes(yr, yi, phase, out):
-    """``out[ln] = atan_discriminator(yr[ln], yi[ln], phase[ln])`` on every lane (libm per lane); arrays (LANES,)."""
+    """``out[ln] = atan_discriminator(yr[ln], yi[ln], phase[ln])`` on every lane (one SIMD evaluation); arrays (LANES,)."""
     L = LANES
     if yr.shape != (L,) or yi.shape != (L,) or phase.shape != (L,) or out.shape != (L,):
         raise ValueError("atan_discriminator_lanes: arrays must be (LANES,)")
-    for ln in range(L):
-        out[ln] = atan_discriminator(yr[ln], yi[ln], phase[ln])
+    lane_store(out, 0, atan_discriminator(lane_load(yr, 0), lane_load(yi, 0), lane_load(phase, 0)))
 
 
 @njit(cache=True)

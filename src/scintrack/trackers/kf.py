@@ -23,10 +23,10 @@ its last axis and each matrix entry of the 32 trials is one SIMD vector
 (``blocks.Lanes``); the blocks are the lane forms of the one-trial ones
 (:func:`.blocks.sparse_predict_lanes` over the non-zeros of F,
 :func:`.blocks.scalar_update_lanes`, :func:`.blocks.m2m4_lanes` on
-:func:`.blocks.window_push_lanes`), while cos, sin and atan2 of the
-discriminator and exp and erf of eq. (12) are called per lane
-(:func:`.blocks.atan2_discriminator_lanes`), the same libm calls as before.
-Results are bit-identical to the one-trial-at-a-time kernel this replaced,
+:func:`.blocks.window_push_lanes`), the discriminator is one SIMD evaluation of
+:mod:`.trig`'s sine, cosine and atan2 (:func:`.blocks.atan2_discriminator_lanes`;
+libm's, per lane, until the twenty-second round of issue 14), and exp and erf
+of eq. (12) are libm calls per lane.  Results are bit-identical to the one-trial-at-a-time kernel this replaced,
 kept as :func:`kf_kernel_scalar` (``tests/test_kf_lanes.py``: every output,
 as uint64, for kf, akf and akf_ar with AR orders 1-3, a non-PSD P0, 10 ms and
 1 ms, batches of 1, 5, 31, 32, 33 and 100 trials, a NaN and an inf prompt):
@@ -34,10 +34,12 @@ per lane every floating-point operation is the scalar filter's, in the same
 order and with the same operands (the zero entries of H and the unit entries
 of F included), never fused or reassociated (no fast-math).  A last block with
 fewer trials computes copies of its last trial (discarded), so a block costs
-the same for 1 or 32 trials.  Measured (CPU time, best of 5, 256 trials x 2000
+the same for 1 or 32 trials; "bit-identical" treats all NaNs as one (the sign
+of a NaN met by another is unspecified, ``tests/test_kf_lanes.py::_bits_equal``).  Measured (CPU time, best of 5, 256 trials x 2000
 epochs at 10 ms, machine loaded ~3 on 2 cores): KF 5.0 -> 18.7, AKF
 4.1 -> 13.5, AKF-AR (p = 2) 3.3 -> 11.5 M filter-epochs/s; the remaining time
-is mostly the per-lane libm calls.  Same load, 3000 epochs, CPU time: 20,
+was mostly the per-lane libm calls (with :mod:`.trig`, 18.4 -> 41.9 M/s for
+the KF in ``benchmarks/run.py``, twenty-second round).  Same load, 3000 epochs, CPU time: 20,
 25, 50 and 100 trials ran 2.2-3.5x faster than before; break-even at ~8
 trials, below it slower (1 trial: 0.5-0.8 against 3-5 M/s).
 

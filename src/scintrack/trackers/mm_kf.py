@@ -111,7 +111,7 @@ from numba import njit
 
 from ..estimators.cn0 import M2M4_FLOOR, StreamingM2M4, cn0_from_powers, m2m4
 from ..models import clock as clock_models
-from . import blocks
+from . import blocks, trig
 from .base import TrackerContext, TrackInit, TrackOutput
 from .blocks import lane_load, lane_store
 from .registry import register
@@ -159,7 +159,7 @@ def two_mode_iq_update(x, P, ph0, ph1, k0, k1, dx, r, yr, yi, log_pp, log_pm):
     ``x_- = x - K (y + zhat)``; mode weights in logs; moment-matched merge.
     """
     A = x[0]
-    c_, s_ = math.cos(x[1]), math.sin(x[1])
+    s_, c_ = trig.sincos(x[1])
     for a in range(3):
         ph0[a] = P[a, 0] * c_ - P[a, 1] * A * s_
         ph1[a] = P[a, 0] * s_ + P[a, 1] * A * c_
@@ -296,16 +296,13 @@ def two_mode_iq_update_lanes(x, P, ph0, ph1, k0, k1, dx, cs, sn, r, yr, yi, lpp,
     ``x`` (3, LANES), ``P`` (3, 3, LANES) in place; ``r``, ``yr``, ``yi``, the log priors ``lpp``, ``lpm``
     (LANES,); outputs ``mu_p`` and ``log_odds`` (LANES,); work arrays ``ph0``, ``ph1``, ``k0``, ``k1``,
     ``dx`` (3, LANES) and ``cs``, ``sn`` (LANES,).  Every expression is the scalar block's, term by
-    term in its order, on lane vectors (IEEE, no contraction), and the libm calls (cos, sin, exp, log)
+    term in its order, on lane vectors (IEEE, no contraction), :func:`.trig.sincos` on the lane vector, and the libm calls (exp, log)
     and the log-sum-exp's branch are made per lane: each lane has the scalar block's bits.  An exact-zero
     ``det S`` on any lane raises ZeroDivisionError, as the scalar division does.
     """
     L = blocks.LANES
-    for ln in range(L):
-        cs[ln] = math.cos(x[1, ln])
-        sn[ln] = math.sin(x[1, ln])
     A = lane_load(x, 0)
-    c_, s_ = lane_load(cs, 0), lane_load(sn, 0)
+    s_, c_ = trig.sincos(lane_load(x, L))
     for a in range(3):
         pa0, pa1 = lane_load(P, (3 * a) * L), lane_load(P, (3 * a + 1) * L)
         lane_store(ph0, a * L, pa0 * c_ - pa1 * A * s_)
@@ -372,8 +369,8 @@ def mm_kf_loop(y, prm, start, theta, freq, amp, p_plus, log_odds, cn0_db, cov, c
     A block runs from the earliest start of its trials; a lane whose trial starts later computes from
     ``x0``, ``P0`` unwritten until its start, where it takes its checkpoint.  Per lane the operations
     and their order are those of :func:`mm_kf_loop_scalar` (:func:`.blocks.sparse_predict_lanes`,
-    :func:`two_mode_iq_update_lanes`, :func:`.blocks.window_push_lanes`, M2M4 on lane vectors, libm
-    per lane), so every trial's result is the one it has alone, bit for bit.  The filter's epochs form
+    :func:`two_mode_iq_update_lanes`, :func:`.blocks.window_push_lanes`, M2M4 on lane vectors, libm's
+    exp and log per lane), so every trial's result is the one it has alone, bit for bit.  The filter's epochs form
     one chain of dependent divisions, exponentials and products, so one trial at a time left the
     core waiting on latencies; 32 independent trials fill them (issue 14).
     """

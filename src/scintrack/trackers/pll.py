@@ -22,8 +22,8 @@ is then ambiguous by pi); the default ``atan2`` is the Vila-Valls pilot loop.
 the prompts and the NCO phases, the same numbers the loop used).
 
 Lanes: :func:`pll_kernel` runs ``blocks.LANES`` (32) trials side by side, as the
-AEKF-AR kernel does (:mod:`.aekf_ar`): the discriminator per lane (the same libm
-cos, sin and atan2 / atan calls, :func:`.blocks.atan2_discriminator_lanes`) and
+AEKF-AR kernel does (:mod:`.aekf_ar`): the discriminator (:mod:`.trig`'s sine,
+cosine and atan2 / atan, :func:`.blocks.atan2_discriminator_lanes`) and
 :func:`.blocks.pll_step` on one SIMD vector per quantity.  Results are
 bit-identical to the one-trial-at-a-time kernel this replaced, kept as
 :func:`pll_kernel_scalar` (``tests/test_kf_lanes.py``: phase, frequency and
@@ -32,8 +32,9 @@ discriminator, as uint64, atan2 and atan, 10 ms and 1 ms, batches of 1, 5, 31,
 floating-point operations in the same order, no fast-math.  A last block with
 fewer trials computes copies of its last trial (discarded).  Measured (CPU
 time, best of 5, 256 trials x 2000 epochs at 10 ms, machine loaded ~3-4 on 2
-cores): 15.1 -> 23.6 M filter-epochs/s, now nearly all libm (cos, sin, atan2
-per lane).  A block costs the same for 1 or 32 trials: at 20, 25, 50 and 100
+cores): 15.1 -> 23.6 M filter-epochs/s, then nearly all libm (cos, sin, atan2
+per lane); with :mod:`.trig` instead of libm 22.4 -> 69.4 M/s (``benchmarks/run.py``,
+batch 500; issue 14, twenty-second round).  A block costs the same for 1 or 32 trials: at 20, 25, 50 and 100
 trials x 3000 epochs 14.9-15.1 -> 16.5-19.2 M/s; break-even at ~18 trials,
 below it slower (1 trial: 0.9 against 15.8 M/s).
 """
@@ -69,7 +70,7 @@ def pll_kernel(y, prm):
     """The PLL, ``blocks.LANES`` trials at a time (trial on the last axis: SIMD over trials).
 
     Per lane the operations of the one-trial loop (:func:`pll_kernel_scalar`):
-    the discriminator per lane (libm), :func:`.blocks.pll_step` on Lanes, so every
+    the discriminator on Lanes (:mod:`.trig`), :func:`.blocks.pll_step` on Lanes, so every
     trial's result is the one it has alone, bit for bit.  A short last block
     computes copies of its last trial (not written).
     """

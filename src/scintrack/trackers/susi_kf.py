@@ -58,8 +58,8 @@ in lane layout (:class:`SusiState`, trial on the last axis, made by
 :func:`susi_state`); the blocks are the lane forms of the one-trial ones
 (:func:`.blocks.sparse_predict_lanes` with each lane's Q,
 :func:`.blocks.weighted_scalar_update_lanes`, :func:`.blocks.m2m4_lanes`),
-while the discriminator (cos, sin, atan or atan2) and eq. (10) are evaluated
-per lane with the same libm calls as before.  Results are bit-identical to the
+the discriminator (:mod:`.trig`'s sine, cosine, atan or atan2) is one SIMD
+evaluation and eq. (10) is evaluated per lane.  Results are bit-identical to the
 one-trial-at-a-time kernel this replaced, kept as :func:`susi_kernel_scalar`
 (``tests/test_kf_lanes.py``: every output and the carried state, as uint64,
 for susi_akf with atan, atan2 and nominal R, susi_sakf with atan2 and with
