@@ -74,9 +74,15 @@ from numba import njit, vectorize
 
 from . import trig
 from .lanes import LANES
-from .simd import lane_load, lane_splat, lane_store, lane_where_less, lanes_any_zero, lanes_empty, select_less
-
-__all__ = ["LANES", "lane_load", "lane_splat", "lane_store", "lanes_empty", "lanes_any_zero", "select_less"]  # re-exported: the kernels' one import
+from .simd import (
+    lane_load,
+    lane_splat,
+    lane_store,
+    lane_where_less,
+    lanes_any_zero,
+    lanes_empty,  # noqa: F401 - the kernels call it as blocks.lanes_empty
+    select_less,
+)
 
 _F8_2 = ["float64(float64, float64)"]
 _F8_3 = ["float64(float64, float64, float64)"]
