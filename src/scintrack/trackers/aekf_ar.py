@@ -21,7 +21,7 @@ A "not estimable" S4 (NaN, :func:`.blocks.s4_corrected`: signal power
 unresolved or S4 >= 2) is recorded as NaN in ``s4_hat`` but never chooses a
 set: the nearest set is that of the last estimable S4 of the trial (the
 initial set's S4 until the first; a lane-wise select,
-:func:`.blocks.select_less`).  Where every estimate is estimable the results
+:func:`.simd.select_less`).  Where every estimate is estimable the results
 are bit for bit those of the former kernel (checked on 77 runs at 10-50
 dB-Hz); before, a non-resolvable signal gave S4 up to ~1e12 (the 1e-12
 floor of the signal power), which chose the largest-S4 set.
@@ -56,7 +56,7 @@ The kernel (:func:`aekf_kernel`) is made of :mod:`.blocks` (structured
 predict, M2M4, closed-form I/Q update, fold, sliding S4, nearest point) and
 runs ``blocks.LANES`` (32) trials side by side: every state array carries the
 trial on its last axis and each matrix entry of the 32 trials is one SIMD
-vector (``blocks.Lanes``).  The predict uses the structure of F (the lag shifts
+vector (``simd.Lanes``).  The predict uses the structure of F (the lag shifts
 of the companion blocks are copies; only rows 0, 1, 3, ir of F P and columns
 0-3, ir of (F P) F^T take arithmetic; :func:`.blocks.ar_predict`).  Results
 are bit-identical to the one-trial-at-a-time kernel this replaced (checked on

@@ -20,7 +20,7 @@ scalar update); :meth:`DiscriminatorKF.reference` is the textbook matrix form.
 Lanes: :func:`kf_kernel` runs ``blocks.LANES`` (32) trials side by side, as the
 AEKF-AR kernel does (:mod:`.aekf_ar`): every state array carries the trial on
 its last axis and each matrix entry of the 32 trials is one SIMD vector
-(``blocks.Lanes``); the blocks are the lane forms of the one-trial ones
+(``simd.Lanes``); the blocks are the lane forms of the one-trial ones
 (:func:`.blocks.sparse_predict_lanes` over the non-zeros of F,
 :func:`.blocks.scalar_update_lanes`, :func:`.blocks.m2m4_lanes` on
 :func:`.blocks.window_push_lanes`), the discriminator is one SIMD evaluation of
