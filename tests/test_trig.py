@@ -33,19 +33,20 @@ def _sincos_all(x):
 
 
 @njit(cache=True)
+def _pairwise(f, a, b):
+    """``f(a[i], b[i])`` for every i (f: trig.atan2 or trig.atan)."""
+    out = np.empty_like(a)
+    for i in range(a.size):
+        out[i] = f(a[i], b[i])
+    return out
+
+
 def _atan2_all(y, x):
-    out = np.empty_like(x)
-    for i in range(x.size):
-        out[i] = trig.atan2(y[i], x[i])
-    return out
+    return _pairwise(trig.atan2, y, x)
 
 
-@njit(cache=True)
 def _atan_all(q, i_):
-    out = np.empty_like(q)
-    for i in range(q.size):
-        out[i] = trig.atan(q[i], i_[i])
-    return out
+    return _pairwise(trig.atan, q, i_)
 
 
 @njit(cache=True)

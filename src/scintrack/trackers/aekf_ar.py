@@ -201,7 +201,6 @@ def aekf_kernel(y, prm):
     G = blocks.lanes_empty((4, n, L))
     ph0 = blocks.lanes_empty((n, L))
     ph1 = blocks.lanes_empty((n, L))
-    sc = blocks.lanes_empty((7, L))
     co = blocks.lanes_empty((nc, L))
     r = blocks.lanes_empty((L,))
     yr = blocks.lanes_empty((L,))
@@ -270,7 +269,7 @@ def aekf_kernel(y, prm):
                 _, s2v = blocks.m2m4_split(lane_load(ns2, 0) / ncount, lane_load(ns4, 0) / ncount, prm.floor_fraction)
                 lane_store(s2, 0, s2v)
             lane_store(r, 0, 0.5 * lane_load(s2, 0))
-            blocks.iq_update(x, P, ph0, ph1, sc, prm.A, ir, r, yr, yi)
+            blocks.iq_update(x, P, ph0, ph1, prm.A, ir, r, yr, yi)
             for ln in range(L):
                 if prm.fold_mirror and x[ir, ln] < 0.0:
                     blocks.fold_mirror(x[:, ln], P[:, :, ln], ir)

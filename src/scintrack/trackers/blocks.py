@@ -628,7 +628,7 @@ def ar_predict_flops(p: int, q: int) -> int:
 
 
 @njit(cache=True)
-def iq_update(x, P, ph0, ph1, sc, A, ir, r, yr, yi):
+def iq_update(x, P, ph0, ph1, A, ir, r, yr, yi):
     """EKF update on z = [I, Q] (eqs. 13-14), R = r I_2, on lanes.
 
     H has non-zero entries only in the columns of theta_d (0), theta_s,k (3)
@@ -636,14 +636,14 @@ def iq_update(x, P, ph0, ph1, sc, A, ir, r, yr, yi):
     column sums and the 2 x 2 innovation covariance is inverted in closed form;
     ``x += K e``, ``P -= K (P H^T)^T`` (every entry, as the one-trial form had it).
     ``x`` (n, LANES), ``P`` (n, n, LANES), ``r``/``yr``/``yi`` (LANES,);
-    work arrays ``ph0``, ``ph1`` (n, LANES) and ``sc`` (7, LANES).  A zero
-    innovation determinant raises ZeroDivisionError, as the scalar division did.
+    work arrays ``ph0``, ``ph1`` (n, LANES).  A zero innovation determinant on
+    any lane raises ZeroDivisionError (:func:`lanes_any_zero`), as the scalar division did.
     """
     L = LANES
     n = x.shape[0]
-    if (not 3 < ir < n or x.shape != (n, L) or P.shape != (n, n, L) or ph0.shape != (n, L) or ph1.shape != (n, L) or sc.shape != (7, L)
+    if (not 3 < ir < n or x.shape != (n, L) or P.shape != (n, n, L) or ph0.shape != (n, L) or ph1.shape != (n, L)
             or r.shape != (L,) or yr.shape != (L,) or yi.shape != (L,)):
-        raise ValueError("iq_update: arrays must be x, ph0, ph1 (n, LANES), P (n, n, LANES), sc (7, LANES), r, yr, yi (LANES,), 3 < ir < n")
+        raise ValueError("iq_update: arrays must be x, ph0, ph1 (n, LANES), P (n, n, LANES), r, yr, yi (LANES,), 3 < ir < n")
     # the linearisation point theta_d + theta_s (trig.sincos on the lane vector)
     rho = lane_load(x, ir * L)
     s_, c_ = trig.sincos(lane_load(x, 0) + lane_load(x, 3 * L))
@@ -651,8 +651,8 @@ def iq_update(x, P, ph0, ph1, sc, A, ir, r, yr, yi):
     a1 = A * rho * c_
     b0 = A * c_
     b1 = A * s_
-    lane_store(sc, 4 * L, lane_load(yr, 0) - A * rho * c_)  # e0
-    lane_store(sc, 5 * L, lane_load(yi, 0) - A * rho * s_)  # e1
+    e0 = lane_load(yr, 0) - A * rho * c_
+    e1 = lane_load(yi, 0) - A * rho * s_
     for a in range(n):
         o = a * n * L
         u = lane_load(P, o) + lane_load(P, o + 3 * L)
@@ -666,15 +666,11 @@ def iq_update(x, P, ph0, ph1, sc, A, ir, r, yr, yi):
     s01 = a0 * hu1 + b0 * lane_load(ph1, ir * L)
     s11 = a1 * hu1 + b1 * lane_load(ph1, ir * L) + rr
     det = s00 * s11 - s01 * s01
-    lane_store(sc, 6 * L, det)
-    for ln in range(L):
-        if sc[6, ln] == 0.0:
-            raise ZeroDivisionError("division by zero")
+    if lanes_any_zero(det):
+        raise ZeroDivisionError("division by zero")
     i00 = s11 / det
     i01 = -s01 / det
     i11 = s00 / det
-    e0 = lane_load(sc, 4 * L)
-    e1 = lane_load(sc, 5 * L)
     for a in range(n):
         h0 = lane_load(ph0, a * L)
         h1 = lane_load(ph1, a * L)
