@@ -19,21 +19,14 @@ min_version("9.0")
 
 # glibc's allocator keeps freed memory for reuse instead of handing every large
 # numpy temporary back to the kernel and faulting in fresh zeroed pages for the
-# next one (a fifth of the big jobs' CPU was system time).  Jobs inherit it;
-# results are the same bits; a GLIBC_TUNABLES of your own wins.  Measured in
-# docs/performance.md ("Allocator settings").
+# next one (a fifth of the big jobs' CPU was system time otherwise).  Jobs
+# inherit it; results are the same bits; a GLIBC_TUNABLES of your own wins
+# (docs/performance.md).
 os.environ.setdefault("GLIBC_TUNABLES", "glibc.malloc.mmap_threshold=1073741824:glibc.malloc.trim_threshold=1073741824")
 
 sys.path.insert(0, os.path.join(workflow.basedir, "src"))
-from scintrack.config import ConfigError, load_config
-from scintrack.pipeline import job_server
-from scintrack.pipeline.benchmark_sampling import install as _light_benchmark_sampling
-from scintrack.pipeline.scheduler_timers import cancel_pending
-
-# benchmark: files are sampled with RSS/VMS only (no USS/PSS): Snakemake's own
-# sampler walks every page table of every job ~2x a second (on 19 shard jobs the
-# Snakemake process's system time 4.7 -> 0.9 s; src/scintrack/pipeline/benchmark_sampling.py).
-_light_benchmark_sampling()
+from scintrack.config import load_config
+from scintrack.errors import ConfigError
 
 _CONFIG_YAML = os.path.join(workflow.basedir, "config", "config.yaml")
 try:  # the project's loader names the file and line of a YAML error
@@ -56,22 +49,6 @@ onstart:
     _removed = clean_stale(OUTPUT_ROOTS)
     if _removed:
         print(f"removed {len(_removed)} temporary file(s) left by an interrupted run", file=sys.stderr)
-    # Local runs: one warm process imports the libraries once and each job's script
-    # runs in a fork of it (src/scintrack/pipeline/job_server.py; SCINTRACK_JOB_SERVER=0 turns it off).
-    job_server.start(workflow, os.path.join(workflow.basedir, "workflow", "scripts"))
-
-
-# With the workflow profile's rate limit (profiles/default) the scheduler keeps a
-# 10-s re-evaluation timer alive; cancel it when the run is over, so the process
-# exits at once (src/scintrack/pipeline/scheduler_timers.py).
-onsuccess:
-    cancel_pending()
-    job_server.stop()
-
-
-onerror:
-    cancel_pending()
-    job_server.stop()
 
 
 rule all:

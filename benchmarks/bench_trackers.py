@@ -12,7 +12,7 @@ call (JIT compilation or cache load) is excluded.  Besides the wall-clock rate
 reported: on a loaded machine it is what one core delivers while it runs this
 process.
 
-Targets (issue 14): every kernel >= 100x its per-trial loop at batch 500; the
+Targets: every kernel >= 100x its per-trial loop at batch 500; the
 AEKF-AR kernel >= 10 M filter-epochs/s, reported next to the flop-limited rate
 of its predict + update (flops counted from the code,
 :func:`scintrack.trackers.blocks.ar_predict_flops` and ``iq_update_flops``, over

@@ -30,7 +30,7 @@ def _one_blas_pool_per_core() -> None:
     Each worker is one of ``PYTEST_XDIST_WORKER_COUNT`` processes that already fill the
     machine (two on two cores), and OpenBLAS otherwise starts a thread per core in each of
     them: the pools then oversubscribe the cores and their threads spin while they wait for
-    work (the unit tests took 94 -> 84 CPU-s with one thread each; issue 14, test-suite time).
+    work.
     Snakemake sets the same variables from ``threads`` for the jobs it runs, so the
     workflows the tests start are unaffected.  A value the user set is kept.
     """
@@ -49,57 +49,14 @@ BIN = Path(sys.executable).parent
 SNAKEMAKE = str(BIN / "snakemake")
 #: the environment every Snakemake the suite starts gets on top of the suite's own
 SNAKEMAKE_ENV = {"PYTHONHASHSEED": "0"}
-#: what a fork of the warm Snakemake server has imported (Snakemake, its plugins and what a run imports
-#: later: reports, schemas, storage); never ``scintrack``, which each fork imports from the Snakefile's src
-WARM_PRELOAD = ("snakemake.cli", "snakemake.profiles", "snakemake.benchmark", "snakemake.storage", "snakemake.report.html_reporter",
-                "jsonschema", "fastjsonschema", "requests", "yte", "dpath", "smart_open", "nbformat", "docutils", "pygments", "jinja2")
-_WARM: dict[str, object] = {}
-
-
 def snakemake_env(**extra: str) -> dict[str, str]:
     """The environment of a Snakemake the suite starts: the suite's own, :data:`SNAKEMAKE_ENV`, then ``extra``."""
     return dict(os.environ, **SNAKEMAKE_ENV, **extra)
 
 
-def _warm_address() -> str:
-    """The address of this process's warm Snakemake server, started on first use ("" if it did not start).
-
-    One server per xdist worker, started with the environment the suite gives Snakemake (:data:`SNAKEMAKE_ENV`);
-    ``SCINTRACK_TEST_WARM_SNAKEMAKE=0`` turns it off.  Without xdist (``-n 0``) there is none: the linear-algebra
-    pools are then not sized to one thread (:func:`_one_blas_pool_per_core`), and a server with more than one
-    thread refuses to fork.  See ``tests/warm_snakemake.py``.
-    """
-    if "addr" not in _WARM:
-        _WARM["addr"] = ""
-        if os.environ.get("SCINTRACK_TEST_WARM_SNAKEMAKE", "1") != "0" and int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0") or 0) > 0:
-            import atexit
-
-            from scintrack.pipeline import job_server
-
-            launched = job_server.launch(str(REPO / "workflow" / "scripts"), preload=list(WARM_PRELOAD),
-                                         env=snakemake_env(), forget=("scintrack",))
-            if launched is not None:
-                proc, folder, addr = launched
-                _WARM.update(addr=addr, proc=proc, folder=folder)
-                atexit.register(job_server.shutdown, proc, folder)
-    return str(_WARM["addr"])
-
-
-def warm_server_pid() -> int | None:
-    """The pid of this process's warm Snakemake server (None if it is not running)."""
-    _warm_address()
-    proc = _WARM.get("proc")
-    return proc.pid if proc is not None else None
-
-
 def snakemake_cmd() -> list[str]:
-    """The command that runs ``snakemake`` with the arguments appended to it: through the warm server.
-
-    ``tests/warm_snakemake.py`` hands the command to a fork of this process's warm Snakemake server (about a
-    second of imports less per start-up) and runs the plain ``snakemake`` itself when the server cannot serve
-    it (e.g. an environment other than :data:`SNAKEMAKE_ENV`), so what a test sees never depends on it.
-    """
-    return [sys.executable, str(REPO / "tests" / "warm_snakemake.py"), _warm_address(), SNAKEMAKE]
+    """The command that runs ``snakemake``, as a user runs it (arguments are appended)."""
+    return [SNAKEMAKE]
 
 
 def run_snakemake(workdir: Path, *args: str, timeout: float = 900, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
@@ -131,15 +88,13 @@ def cores_per_worker() -> int:
     return max(1, cores // int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")))
 
 
-def experiment_jobs(experiments) -> dict[str, int]:
-    """Jobs that a set of experiment specs plans: per scenario, ``shards`` tracking_shard jobs and one
-    tracking_merge when ``shards > 1``, one tracking_single job otherwise (rules with no job left out)."""
-    experiments = list(experiments)
-    multi = [e for e in experiments if int(e["shards"]) > 1]
-    single = [e for e in experiments if int(e["shards"]) == 1]
+def experiment_jobs(experiments: dict) -> dict[str, int]:
+    """Jobs that a set of experiment specs (name -> spec) plans: one ``tracking_<name>`` job per experiment with
+    ``shards: 1``; per scenario ``shards`` tracking_shard jobs and one tracking_merge otherwise (rules with no job left out)."""
+    multi = [e for e in experiments.values() if int(e["shards"]) > 1]
     jobs = {"tracking_shard": sum(len(e["scenarios"]) * int(e["shards"]) for e in multi),
             "tracking_merge": sum(len(e["scenarios"]) for e in multi),
-            "tracking_single": sum(len(e["scenarios"]) for e in single)}
+            **{f"tracking_{name}": 1 for name, e in experiments.items() if int(e["shards"]) == 1}}
     return {rule: n for rule, n in jobs.items() if n}
 
 

@@ -11,6 +11,7 @@ from scintrack.config import load_config
 from scintrack.experiments.runner import time_in_lock
 from scintrack.experiments.scenario import acquisition, simulate
 from scintrack.models.ar import ScintillationAR
+from scintrack.settings import TrackingSettings
 from scintrack.signals.correlator import complex_noise, noise_power
 from scintrack.signals.csm import generate_csm
 from scintrack.trackers import registry
@@ -19,7 +20,7 @@ from scintrack.trackers.base import TrackerContext, TrackInit
 
 REPO = Path(__file__).resolve().parents[1]
 TS = 0.01
-TRACKING = {"amplitude": 1.0, "cn0_dbhz": 30.0, "fd0_hz": 50.0, "fr_hz_s": 100.0}
+TRACKING = TrackingSettings.from_params({"amplitude": 1.0, "cn0_dbhz": 30.0, "fd0_hz": 50.0, "fr_hz_s": 100.0})
 
 
 @pytest.fixture(scope="module")

@@ -11,8 +11,8 @@ import xarray as xr
 
 from scintrack.experiments.floors import FLOORS, READINGS
 from scintrack.experiments.metrics import Z95
-from scintrack.tables import vila_valls_2018_aekf as aekf
-from scintrack.tables.paper_values import TRACKERS_5, VILA_VALLS_2018_TABLE_III
+from scintrack.products.tables import vila_valls_2018_aekf as aekf
+from scintrack.products.tables.paper_values import TRACKERS_5, VILA_VALLS_2018_TABLE_III
 
 CELLS = list(VILA_VALLS_2018_TABLE_III)
 LABELS = {"pll": "PLL", "kf": "KF", "akf": "AKF", "akf_ar": "AKF-AR", "aekf_ar": "AEKF-AR", "aekf_ar_refnoise": "AEKF-AR ref"}
@@ -200,8 +200,8 @@ def test_time_in_lock_ci_by_hand():
 
 
 def test_s5_table_and_figure_render(tmp_path):
-    from scintrack.figures.common import save_figure
-    from scintrack.figures.vila_valls_2018_aekf import fig_s5
+    from scintrack.products.figures.common import save_figure
+    from scintrack.products.figures.vila_valls_2018_aekf import fig_s5
 
     cells = ["s4_0.9_tau0_0.1", "s4_0.5_tau0_0.4"]
     inputs = []

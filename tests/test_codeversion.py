@@ -31,7 +31,7 @@ def test_closure_follows_imports_transitively_and_inside_functions():
     # render_table imports the table module only through the product registry
     assert "scintrack.products" in import_closure([SCRIPTS / "render_table.py"])
     # a function-local import counts too (the tables import experiments.metrics inside table07)
-    assert "scintrack.experiments.metrics" in import_closure(["scintrack.tables.vila_valls_2018"])
+    assert "scintrack.experiments.metrics" in import_closure(["scintrack.products.tables.vila_valls_2018"])
 
 
 def test_unknown_module_is_an_error():

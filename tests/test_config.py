@@ -8,7 +8,8 @@ import pytest
 import yaml
 from conftest import REPO, run_snakemake
 
-from scintrack.config import ConfigError, load_config, validate_config
+from scintrack.config import load_config, validate_config
+from scintrack.errors import ConfigError
 
 SCHEMA = REPO / "workflow" / "schemas" / "config.schema.yaml"
 
@@ -115,7 +116,8 @@ def test_snakemake_stops_on_bad_value_with_one_line(tmp_path):
 def test_trace_scenarios_and_floors_are_checked(config, edit, key):
     import copy
 
-    from scintrack.config import ConfigError, check_consistency
+    from scintrack.config import check_consistency
+    from scintrack.errors import ConfigError
 
     cfg = copy.deepcopy(config)
     edit(cfg)

@@ -6,9 +6,9 @@ import numpy as np
 import xarray as xr
 
 from scintrack.checksums import read_checksums, write_checksums
-from scintrack.figures import vila_valls_2018 as figs
-from scintrack.figures.common import save_figure
-from scintrack.tables.vila_valls_2018 import table01_long, table01_twin
+from scintrack.products.figures import vila_valls_2018 as figs
+from scintrack.products.figures.common import save_figure
+from scintrack.products.tables.vila_valls_2018 import table01_long, table01_twin
 
 
 def _diag():
@@ -45,7 +45,7 @@ def test_saving_draws_a_tight_layout_figure_once_per_file_with_matplotlibs_own_b
     from matplotlib.figure import Figure
     from matplotlib.layout_engine import PlaceHolderLayoutEngine
 
-    from scintrack.figures.common import PDF_METADATA, PNG_METADATA, STYLE
+    from scintrack.products.figures.common import PDF_METADATA, PNG_METADATA, STYLE
 
     diag = _diag()
     kept = figs.fig01(diag)

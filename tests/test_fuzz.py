@@ -28,9 +28,9 @@ from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.control import currently_in_test_context
 
-from scintrack.config import ConfigError, load_config, validate_config
+from scintrack.config import load_config, validate_config
 from scintrack.data.traces import load_trace
-from scintrack.errors import InputError
+from scintrack.errors import ConfigError, InputError
 from scintrack.signals.gps import ephemeris, iq, lnav, message
 
 REPO = Path(__file__).resolve().parents[1]

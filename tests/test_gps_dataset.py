@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from scintrack.config import load_config
-from scintrack.data.gps_jamming import LAMBDA_L1, C, gps_jamming_params, gps_jamming_version
 from scintrack.data.gps_jamming_build import build
+from scintrack.data.gps_jamming_spec import LAMBDA_L1, C, gps_jamming_params, gps_jamming_version
 from scintrack.io import content_hash
-from scintrack.pipeline.project import project_file
+from scintrack.project import project_file
 from scintrack.signals.gps import jamming, message
 
 START_UTC = "2015-10-07T10:27:00"  # inside the window where PRNs 1, 11, 28, 30 are up (docs/gps-jamming.md)

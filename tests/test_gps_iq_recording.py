@@ -19,9 +19,9 @@ from test_gps_dataset import small_config
 
 from scintrack.data.gps_iq import iq_params, segment_seed
 from scintrack.data.gps_iq_build import record, sv_signal, write
-from scintrack.data.gps_jamming import gps_jamming_params
 from scintrack.data.gps_jamming_build import build
-from scintrack.pipeline.project import project_file
+from scintrack.data.gps_jamming_spec import gps_jamming_params
+from scintrack.project import project_file
 from scintrack.signals.gps import acquisition, iq
 
 T = 1e-3

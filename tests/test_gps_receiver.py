@@ -14,13 +14,13 @@ import numpy as np
 import pytest
 from test_gps_dataset import small_config
 
-from scintrack.data.gps_jamming import gps_jamming_params
 from scintrack.data.gps_jamming_build import build
+from scintrack.data.gps_jamming_spec import gps_jamming_params
 from scintrack.experiments import gps_prompts as gp
 from scintrack.experiments.gps_channel_result import channel_result
 from scintrack.experiments.gps_receiver import channel, decoded_ephemeris, held_1ms, prior_sources
 from scintrack.pipeline import params as P
-from scintrack.pipeline.project import project_file
+from scintrack.project import project_file
 from scintrack.signals.gps import ephemeris, lnav, message
 
 RINEX = project_file("data/ephemerides/brdc2800.15n")

@@ -19,7 +19,7 @@ from scintrack.signals.correlator import complex_noise, noise_power, prompts
 from scintrack.signals.dynamics import third_order_phase
 from scintrack.trackers import blocks, registry
 from scintrack.trackers.aekf_ar import AEKFAR
-from scintrack.trackers.base import TrackInit, TrackOutput
+from scintrack.trackers.base import Tracker, TrackInit, TrackOutput
 from scintrack.trackers.kf import DiscriminatorKF
 from scintrack.trackers.mm_kf import MMKF, mm_kf_kernel
 from scintrack.trackers.pll import PLL
@@ -146,7 +146,7 @@ def test_nan_prompts_and_an_absurd_q_are_flagged():
 
 @registry.register("toy_nan_after")
 @dataclass
-class NanAfter:
+class NanAfter(Tracker):
     """A PLL whose output turns NaN from ``epoch`` on in the odd rows of its batch (a constructed divergence)."""
 
     ts: float
@@ -154,6 +154,7 @@ class NanAfter:
 
     SCHEMA = {"epoch": {"type": "integer"}}
     TRACKING_KEYS = ()
+    PROVIDES = PLL.PROVIDES
 
     @classmethod
     def from_spec(cls, spec, context):
@@ -218,8 +219,8 @@ def test_note_is_empty_without_flags_and_counts_non_estimable_s4():
 
 
 def test_figures_get_the_note_as_a_footer_and_tables_as_a_note_line(tmp_path):
-    from scintrack.figures.common import add_footer, new_figure, save_figure
-    from scintrack.tables.common import join_notes, write_table
+    from scintrack.products.figures.common import add_footer, new_figure, save_figure
+    from scintrack.products.tables.common import join_notes, write_table
 
     fig, _ = new_figure(1, 1)
     add_footer(fig, "")

@@ -139,3 +139,27 @@ def test_remembered_keeps_passes_only_and_follows_code_and_argument(tmp_path, mo
     finally:
         codeversion.clear_caches()
         codeversion.clear_disk_cache_memory()
+
+
+RENDER_IMPORTS = textwrap.dedent("""
+    import importlib, sys
+    sys.path.insert(0, "src")
+    from scintrack import runlog
+    from scintrack.experiments.guards import divergence_note
+    from scintrack.products.figures.common import add_footer, save_figure
+    from scintrack.io import open_dataset
+    from scintrack.products import PRODUCT_MODULES, products
+    from scintrack.products.tables.common import write_table
+    for module in PRODUCT_MODULES:
+        importlib.import_module(module)
+    products()
+""")
+
+
+def test_figure_and_table_jobs_import_no_numba_statsmodels_or_scipy_stats():
+    """What the render scripts and every figure/table module import at start: none of the compute stack
+    (a render job reads results; numba's and statsmodels' imports alone cost more than most renders)."""
+    code = RENDER_IMPORTS + "\nprint(json.dumps(sorted(m for m in sys.modules if m.split('.')[0] in ('numba', 'statsmodels') or m.startswith('scipy.stats'))))\n"
+    proc = subprocess.run([sys.executable, "-c", "import json\n" + code], cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert json.loads(proc.stdout.strip().splitlines()[-1]) == []

@@ -11,7 +11,7 @@ import pytest
 from scipy.linalg import solve_discrete_are
 from scipy.stats import norm
 
-from scintrack.config import ConfigError
+from scintrack.errors import ConfigError
 from scintrack.models import clock
 from scintrack.signals.correlator import complex_noise, noise_power
 from scintrack.trackers import registry

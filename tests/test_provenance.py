@@ -53,14 +53,14 @@ def test_fresh_clone_plans_the_whole_dag_for_archive(tmp_path):
         "archive": 1, "compare": 1, "figure_checksums": 1, "table_checksums": 1, "dataset_manifest": 1,
         "csm_training_set": len(config["ar_training"]["s4"]), "ar_fit": len(config["ar_training"]["s4"]), "ar_lut": 1, "ar_diagnostics": 1,
         "surrogate_event": len(config["real_traces"]["events"]), "trace_diagnostics": 1,
-        **{r: len(config["real_traces"]["events"]) for r in ("trace_ar_models", "trace_static", "trace_dynamics")},
-        **experiment_jobs(exps),
+        **{r: len(config["real_traces"]["events"]) for r in ("trace_ar_models", "trace_tracking")},
+        **experiment_jobs(config["experiments"]),
         "gps_jamming_dataset": 1, "gps_iq_recording": 1, "zhao_cn0_estimates": 1, "zhao_iq_spectrum": 1,
         "zhao_bit_prediction": 1, "zhao_channel": len(config["gps_jamming"]["prns"]), "zhao_receiver": 1,
         "zhao_cn0_sweep_point": len(config["zhao_receiver"]["cn0_sweep"]["cn0_dbhz"]),
         "susi_surrogate": len(config["susi_2014"]["traces"]), "susi_indices": len(params.susi_scenarios(config)),
-        "vv_floors": len(config["floors"]["scenarios"]),
-        **({"ar_fit_wrapped": len(config["ar_training"]["s4"]), "ar_lut_wrapped": 1} if any(e.get("lut") == "wrapped" for e in exps) else {}),
+        "vv_floors": 1,
+        **({"ar_lut_wrapped": 1} if any(e.get("lut") == "wrapped" for e in exps) else {}),
         **{name: 1 for name in products()},  # every registered figure and table
     }
     assert planned == expected

@@ -10,7 +10,8 @@ import pytest
 import xarray as xr
 from conftest import REPO
 
-from scintrack.config import ConfigError, load_config, validate_config
+from scintrack.config import load_config, validate_config
+from scintrack.errors import ConfigError
 from scintrack.experiments.runner import run_shard
 from scintrack.trackers import registry
 from scintrack.trackers.aekf_ar import AEKFAR
@@ -200,7 +201,7 @@ def test_config_validation_runs_the_tracker_fragments(config):
 
 @registry.register("toy_hold")
 @dataclass
-class HoldPhase:
+class HoldPhase(Tracker):
     """A 'tracker' that holds the acquisition phase plus the nominal Doppler ramp."""
 
     ts: float
@@ -208,6 +209,7 @@ class HoldPhase:
 
     SCHEMA = {"doppler_hz": {"type": "number"}}
     TRACKING_KEYS = ("fd0_hz",)
+    PROVIDES = frozenset()
 
     @classmethod
     def from_spec(cls, spec, context):
@@ -241,9 +243,13 @@ def test_a_type_name_cannot_be_taken_twice():
     with pytest.raises(ValueError, match="already registered"):
 
         @registry.register("pll")
-        class Other:
+        class Other(Tracker):
             SCHEMA: dict = {}
             TRACKING_KEYS = ()
+            PROVIDES = frozenset()
+
+            def run(self, y, init):
+                return TrackOutput(theta_d=y.real)
 
             @classmethod
             def from_spec(cls, spec, context):
@@ -252,3 +258,39 @@ def test_a_type_name_cannot_be_taken_twice():
             @staticmethod
             def label(name, spec):
                 return "x"
+
+
+# --- the Tracker protocol: what a tracker gives, declared ------------------------------------------
+
+
+def test_every_tracker_type_declares_the_protocol():
+    from scintrack.trackers.base import OUTPUT_NAMES
+
+    for kind in registry.known_types():
+        cls = registry.get(kind).cls
+        assert Tracker in cls.__mro__, kind
+        assert isinstance(cls.PROVIDES, frozenset) and cls.PROVIDES <= set(OUTPUT_NAMES), (kind, cls.PROVIDES - set(OUTPUT_NAMES))
+        if registry.from_package(kind):
+            for method in ("from_spec", "label", "run", "reference"):
+                assert registry._defines(cls, method), (kind, method)
+
+
+def test_the_outputs_a_tracker_gives_are_the_ones_it_declares(config):
+    """What the runner reads of a tracker (``request``) is what its ``run`` and ``reference`` give, for every configured tracker."""
+    from scintrack.experiments.runner import WANTED
+    from scintrack.models.ar import ScintillationAR
+
+    trace_set = ScintillationAR.from_coefs([0.99], [1.8, -0.9, 0.05], 0.05, 1e-3, 1e-3, s4=0.7)
+    rng = np.random.default_rng(4)
+    n_tr, k = 2, 120
+    y = np.exp(1j * np.linspace(0, 3, k))[None, :] + 0.3 * (rng.standard_normal((n_tr, k)) + 1j * rng.standard_normal((n_tr, k)))
+    noise = 0.3 * (rng.standard_normal((n_tr, k)) + 1j * rng.standard_normal((n_tr, k)))
+    for name, spec in config["trackers"].items():
+        tracker = registry.build(name, spec, _context(config, trace_set=trace_set))
+        given = tracker.request(WANTED)
+        assert given <= tracker.PROVIDES, name
+        init = TrackInit(phase=np.angle(y[:, 0]), doppler_hz=np.zeros(n_tr), rate_hz_s=np.zeros(n_tr),
+                         noise_reference=noise if tracker.needs_noise_reference else None)
+        assert set(tracker.run(y, init).extras) == given, name
+        if spec["type"] != "mm_kf":  # the MM KF's numpy form gives theta_d and the per-epoch series, not the guard's epoch
+            assert set(tracker.reference(y, init).extras) == given, name

@@ -14,8 +14,8 @@ import pytest
 from conftest import REPO
 from test_stress_sweep import _lut
 
+from scintrack.batching import trial_batches, trials_held
 from scintrack.config import load_config
-from scintrack.experiments.batching import trial_batches, trials_held
 from scintrack.experiments.runner import RowSum, S4Statistics, run_shard, s4_statistics
 
 TRACKERS = ["pll", "kf", "akf", "akf_ar", "aekf_ar", "aekf_ar_fold", "susi_pll", "susi_akf", "susi_sakf", "zhao_mm"]
@@ -65,8 +65,9 @@ def test_trial_batches_are_whole_lane_blocks_within_the_budget():
     assert trial_batches(1000, 6_000, 2_000_000) == [(0, 320), (320, 640), (640, 960), (960, 1000)]
     for n, k in [(100, 50_000), (25, 300_000), (1000, 6_000), (7, 10)]:  # what the resource model holds is the largest batch
         assert trials_held(n, k) == max(hi - lo for lo, hi in trial_batches(n, k))
-    from scintrack.trackers import blocks, lanes
-    assert blocks.LANES is lanes.LANES == 32
+    from scintrack import simd
+    from scintrack.trackers import blocks
+    assert blocks.LANES is simd.LANES == 32
 
 
 def test_row_sum_is_numpys_axis0_sum_bit_for_bit():
@@ -98,7 +99,7 @@ def test_shards_are_contiguous_and_take_no_more_lane_blocks_than_needed(n, k):
     """Shards deal the trials out in whole lane blocks when that takes fewer blocks (500 in 5 shards: 16 blocks,
     not 5 x 4), else evenly (50 in 2: 25 + 25); every shard non-empty, together every trial once, in order."""
     from scintrack.pipeline.params import shard_trials
-    from scintrack.trackers.lanes import LANES
+    from scintrack.simd import LANES
 
     cfg = {"experiments": {"x": {"trials": n, "shards": k}}}
     shards = [shard_trials(cfg, "x", i) for i in range(k)]

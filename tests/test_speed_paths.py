@@ -61,7 +61,7 @@ def test_row_blocked_prompts_and_polar_equal_the_whole_array_expressions(monkeyp
 
 
 def test_column_nanmedian_kernel_equals_numpy_bit_for_bit():
-    from scintrack.trackers.kernels import column_nanmedian_kernel
+    from scintrack.experiments.reductions import column_nanmedian_kernel
 
     rng = np.random.default_rng(3)
     for n in (1, 2, 25, 100):
@@ -414,7 +414,8 @@ def test_wrap_is_angle_of_exp_to_the_last_place_and_leaves_in_range_values_alone
 
 
 def test_single_job_result_is_the_shard_plus_merge_result(tmp_path):
-    """tracking_single (one job) gives the content of tracking_shard + tracking_merge (two jobs), bit for bit."""
+    """A single-shard experiment's job (one process per experiment) gives the content of tracking_shard + tracking_merge
+    (two jobs), bit for bit."""
     from test_aekf_study import _tiny_lut
 
     from scintrack.config import load_config

@@ -9,7 +9,7 @@ import pytest
 import xarray as xr
 
 from scintrack.experiments.metrics import Z95
-from scintrack.tables import ranking, susi_2014
+from scintrack.products.tables import ranking, susi_2014
 
 LABELS = {"susi_pll": "PLL (Bn = 15 Hz)", "susi_akf": "AKF PLL", "susi_sakf": "SAKF PLL", "pll": "PLL", "kf": "KF", "akf": "AKF",
           "susi_sakf_a0.5": "SAKF PLL (alpha = 0.5)", "zhao_mm": "MM KF"}
@@ -193,9 +193,9 @@ def test_surrogate_switches():
 
 
 def test_figures_render(tmp_path):
-    from scintrack.figures import ranking as rfig
-    from scintrack.figures import susi_2014 as figs
-    from scintrack.figures.common import save_figure
+    from scintrack.products.figures import ranking as rfig
+    from scintrack.products.figures import susi_2014 as figs
+    from scintrack.products.figures.common import save_figure
 
     rng = np.random.default_rng(4)
     res = chapter(_jit(rng, 0.3), _jit(rng, 0.2), _jit(rng, 0.1))
@@ -219,7 +219,7 @@ def test_figures_render(tmp_path):
 def test_sakf_monitor_says_when_its_T_median_covers_only_the_first_shard():
     """A median does not merge: a sharded result keeps the first shard's T median and says over how many trials
     (``median_trials``, ``tests/test_trackers.py``); the SAKF monitor figure must not claim all of them."""
-    from scintrack.figures import susi_2014 as figs
+    from scintrack.products.figures import susi_2014 as figs
 
     def texts(res):
         fig = figs.susi_sakf_monitor(res)

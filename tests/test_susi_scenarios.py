@@ -18,6 +18,7 @@ from scintrack.io import hash_object
 from scintrack.models import clock as clock_models
 from scintrack.pipeline import params as P
 from scintrack.pipeline import paths
+from scintrack.settings import TrackingSettings
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -82,7 +83,7 @@ def test_receiver_clock_is_the_exact_two_state_process():
     expected = 2 * q[0, 0] + q[1, 1] * ts**2 - 2 * q[0, 1] * ts  # var(w0_k + (f_k - f_{k-1}) ts - w0_{k-1}) with w correlated
     assert abs(d2.var() / expected - 1) < 0.1, (d2.var(), expected)
     sc = {"duration_s": 1.0, "segments": [], "clock": "tcxo_low"}
-    tracking = {"amplitude": 1.0, "cn0_dbhz": 45.0, "fd0_hz": 100.0, "fr_hz_s": 0.0}
+    tracking = TrackingSettings.from_params({"amplitude": 1.0, "cn0_dbhz": 45.0, "fd0_hz": 100.0, "fr_hz_s": 0.0})
     with_clock = simulate("x", sc, tracking, seed=3, ts=ts, nspa=1, warmup_s=0.0, trials=[0, 1])
     without = simulate("x", {**sc, "clock": None}, tracking, seed=3, ts=ts, nspa=1, warmup_s=0.0, trials=[0, 1])
     np.testing.assert_allclose(with_clock.theta_d - without.theta_d, clock_phase(3, "scenario/x/clock", np.array([0, 1]), 1000, ts, "tcxo_low"))

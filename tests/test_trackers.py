@@ -333,9 +333,9 @@ def test_lane_blocks_are_the_scalar_blocks_bit_for_bit():
     window_mean_var / s4_corrected compiled for Lanes) give on every lane the bits of the scalar block."""
     from numba import njit
 
+    from scintrack.simd import LANES as L
+    from scintrack.simd.lanes import lane_load, lane_store
     from scintrack.trackers import blocks
-    from scintrack.trackers.blocks import LANES as L
-    from scintrack.trackers.blocks import lane_load, lane_store
 
     rng = np.random.default_rng(11)
     # formulas: edge values (zeros, negatives, tiny and large) on every lane

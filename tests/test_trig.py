@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 from numba import njit
 
+from scintrack.simd import LANES
+from scintrack.simd.lanes import lane_load, lane_store
 from scintrack.trackers import trig
-from scintrack.trackers.simd import LANES, lane_load, lane_store
 
 
 def ulps(a, b) -> np.ndarray:

@@ -10,10 +10,12 @@ import pytest
 import xarray as xr
 from conftest import REPO
 
-from scintrack.config import ConfigError, load_config, validate_config
+from scintrack.config import load_config, validate_config
+from scintrack.errors import ConfigError
 from scintrack.estimators.s4 import StreamingS4, estimable_fraction, s4_batch, s4_corrected, s4_index
 from scintrack.experiments.scenario import simulate
 from scintrack.models.ar import ScintillationAR
+from scintrack.settings import TrackingSettings
 from scintrack.signals.csm import S4_MAX, Segment, generate_csm, generate_csm_profile
 from scintrack.trackers import blocks
 from scintrack.trackers.aekf_ar import AEKFAR
@@ -135,7 +137,8 @@ def test_the_point_used_is_recorded(config):
     assert AEKFAR.from_spec({"type": "aekf_ar", "design": {"s4": 0.9, "tau0": 0.1}}, ctx).design_point == (0.9, 0.1)
     assert AEKFAR.from_spec({"type": "aekf_ar", "design": "none"}, ctx).design_point is None
     assert AKFAR.from_spec({"type": "akf_ar", "design": "scenario"}, ctx).design_point == (0.5, 0.4)
-    real = simulate("ar_x", {"duration_s": 1.0, "scintillation_model": "ar", "segments": [{"start_s": 0.0, "s4": 0.897, "tau0": 0.1}]}, config["tracking"],
+    real = simulate("ar_x", {"duration_s": 1.0, "scintillation_model": "ar", "segments": [{"start_s": 0.0, "s4": 0.897, "tau0": 0.1}]},
+                    TrackingSettings.from_params(config["tracking"]),
                     seed=1, ts=TS, nspa=8, warmup_s=0.0, trials=range(2), lut=lut)
     assert real.model_point == (0.9, 0.1)
     assert np.all(real.s4_t == 0.9) and np.all(real.tau0_t == 0.1)

@@ -7,6 +7,9 @@
   with the project's loader (a YAML error names the file and line) and exits
   2 with that one line; ``repro.py run`` calls it on every ``--configfile``
   before Snakemake, whose own message does not name the file.
+* ``python -m scintrack rules-doc [--write]``: prints the table of every
+  workflow rule (:mod:`scintrack.products.rules_table`); ``--write`` puts it into
+  ``docs/pipeline.md`` between its markers.
 """
 
 from __future__ import annotations
@@ -23,11 +26,16 @@ def main(argv: list[str] | None = None) -> int:
     v.add_argument("--against", help="also compare the content hashes of the results regenerated in this tree")
     c = sub.add_parser("check-config", help="check that config files are readable YAML mappings")
     c.add_argument("files", nargs="+")
+    r = sub.add_parser("rules-doc", help="print the table of every workflow rule (or --write it into docs/pipeline.md)")
+    r.add_argument("--write", action="store_true")
     args = parser.parse_args(argv)
+    if args.command == "rules-doc":
+        return _rules_doc(args.write)
     if args.command == "check-config":
         from pathlib import Path
 
-        from .config import ConfigError, load_config
+        from .config import load_config
+        from .errors import ConfigError
 
         for name in args.files:
             if not Path(name).exists() and Path(name).suffix not in (".yaml", ".yml", ".json"):
@@ -53,6 +61,25 @@ def main(argv: list[str] | None = None) -> int:
         print(f"verify: {len(problems)} problem(s) in {args.bundle}", file=sys.stderr)
         return 1
     print(f"OK {args.bundle}: every checksum matches" + (f"; results in {args.against} reproduce the archived content hashes" if args.against else ""))
+    return 0
+
+
+def _rules_doc(write: bool) -> int:
+    from pathlib import Path
+
+    from .products.rules_table import current_block, render
+
+    repo = Path.cwd()
+    block = render(repo)
+    if not write:
+        print(block)
+        return 0
+    doc_path = repo / "docs" / "pipeline.md"
+    doc = doc_path.read_text(encoding="utf-8")
+    old = current_block(doc)
+    doc = doc.replace(old, block) if old is not None else doc.rstrip("\n") + "\n\n## Every rule\n\n" + block + "\n"
+    doc_path.write_text(doc, encoding="utf-8")
+    print(f"wrote the rules table into {doc_path}")
     return 0
 
 

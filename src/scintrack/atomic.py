@@ -7,8 +7,7 @@ killed write leaves the old file as it was.
 
 * **Mode.** The temporary file gets the mode a plain ``open()`` would
   (``0666 & ~umask``): ``tempfile.mkstemp`` alone creates files with mode
-  0600, so outputs written atomically were unreadable to the group and
-  others (issue 15).
+  0600, which would leave outputs unreadable to the group and others.
 * **Names.** ``.<target name>.<host>-<pid>.<random>.scintrack-tmp``: hidden,
   recognisable, and naming the process that writes it.  A process killed
   mid-write (SIGKILL, power cut) leaves its temporary file behind;
@@ -24,8 +23,8 @@ killed write leaves the old file as it was.
   the rename: the kill-and-resume test uses it to kill a job in the middle of
   a write.  Bookkeeping files that are no pipeline output (the code-version
   cache, written by Snakemake's own process while it builds the DAG) pass
-  ``hold=False``: holding each of their writes delayed the first job of a
-  fresh folder by a minute and a half.
+  ``hold=False``: holding each of their writes would delay the first job of
+  a fresh folder by a minute and a half.
 
 No heavy imports: the data registry uses it while Snakemake builds the DAG.
 """

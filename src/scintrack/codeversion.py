@@ -24,8 +24,8 @@ The dump depends on the Python version's AST, so a different interpreter
 gives different versions (reruns, never stale results); the locked
 environment fixes the interpreter.
 
-Speed (issue 14: every rule's ``code`` param is computed when Snakemake
-builds the DAG): what a file contributes, the SHA-256 of its normalised
+Speed (every rule's ``code`` param is computed when Snakemake builds the
+DAG): what a file contributes, the SHA-256 of its normalised
 source and the modules it imports, is kept in a small JSON cache keyed by
 the SHA-256 of the file's *bytes* (and the interpreter version), in
 ``.snakemake/scintrack-code-cache.json`` of the working directory when that
@@ -38,7 +38,7 @@ The same cache remembers what a pure function of the code and of a JSON value
 returned (:func:`remembered`), keyed by the code version of the module that
 computes it: the config's consistency check and the tracking keys of a
 tracker spec need the tracker modules (numba) and xarray, which building the
-DAG then loads only when the code or the config changed (issue 14).
+DAG then loads only when the code or the config changed.
 """
 
 from __future__ import annotations

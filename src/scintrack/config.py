@@ -16,12 +16,8 @@ from typing import Any
 
 import yaml
 
-from .errors import InputError
+from .errors import ConfigError
 from .yamlio import yaml_load
-
-
-class ConfigError(InputError):
-    """A configuration value is invalid; the message is one line."""
 
 
 def deep_merge(base: Mapping[str, Any], overlay: Mapping[str, Any]) -> dict[str, Any]:

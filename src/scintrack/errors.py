@@ -3,7 +3,7 @@
 :class:`InputError` is raised for anything the user can fix: a config value,
 a missing, truncated or malformed file, a wrong checksum, an unreachable
 source.  Its message is one line that names the file or setting and the fix.
-The specific kinds (:class:`scintrack.config.ConfigError`,
+The specific kinds (:class:`ConfigError` here,
 :class:`scintrack.data.traces.TraceFormatError`,
 :class:`scintrack.data.download.FetchError`, ...) derive from it, so a caller
 that only wants to know "is this the user's input?" catches ``InputError``.
@@ -26,6 +26,10 @@ PREFIX = "error: "
 
 class InputError(ValueError):
     """Bad input the user can fix; the message is one line naming the file or setting and the fix."""
+
+
+class ConfigError(InputError):
+    """A configuration value is invalid; the message is one line."""
 
 
 def one_line(message: object) -> str:

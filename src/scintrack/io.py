@@ -12,7 +12,7 @@
 
 numpy and xarray are imported inside the functions that use them: the
 workflow imports this module whenever Snakemake builds the DAG (for
-:func:`hash_object` and :func:`git_state`), which must not load them (issue 14).
+:func:`hash_object` and :func:`git_state`), which must not load them.
 """
 
 from __future__ import annotations
@@ -147,8 +147,8 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = Tr
     encoding = {}
     if compress:
         # level 1: measured on the run's largest results (a 139-MB trace-dynamics result, cycle-slip and Susi results)
-        # against level 4, the files are about 1% larger and written 15-40% faster (2.34 -> 1.43 s, 0.48 -> 0.41 s,
-        # 0.36 -> 0.28 s) and read faster; the values, hence content_sha256, are the same (issue 14)
+        # against level 4, the files are about 1% larger and written 15-40% faster (1.43 s against 2.34, 0.41 against
+        # 0.48, 0.28 against 0.36) and read faster; the values, hence content_sha256, are the same
         for name, var in ds.data_vars.items():
             if var.dtype.kind in "fiu" and var.ndim > 0:
                 encoding[name] = {"zlib": True, "complevel": 1}
@@ -186,7 +186,7 @@ def open_dataset(path: str | os.PathLike, *, lazy: bool = False) -> xr.Dataset:
 
     ``lazy``: open it for reading instead, each variable read (and kept) when first used, and the file
     open until the Dataset is closed or collected: the same values, for jobs that use a few variables
-    of large results (the figure and table rules; issue 14).
+    of large results (the figure and table rules).
 
     A missing, truncated or corrupt file raises :class:`DatasetReadError`
     (one line naming the file and the fix: outputs of the pipeline are

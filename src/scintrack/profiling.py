@@ -1,4 +1,4 @@
-"""Opt-in whole-run profiling of the workflow scripts (issue 14: where the time goes).
+"""Opt-in whole-run profiling of the workflow scripts: where the CPU time of a run goes.
 
 With the environment variable ``SCINTRACK_PROFILE=<dir>`` set, every script
 job profiles itself with :mod:`cProfile` from the moment it sets up its log

@@ -13,10 +13,10 @@
   ``--rtol`` (relative), and the slip counts (``slips``, ``slip_events``)
   that changed.
 
-It is how the twenty-second speed round of issue 14 stated the tolerance of
-the trackers' new trigonometry (``docs/performance.md``): a change that only
-moves last bits should leave every summary statistic inside its old
-interval, and move no more trials than a one-ulp change of the input does.
+This is the tolerance for a change that only moves last bits (e.g. the
+trackers' own trigonometry, ``docs/performance.md``): every summary statistic
+stays inside its old interval, and no more trials move than a one-ulp change
+of the input moves.
 Files only in one run are listed, not compared.
 """
 

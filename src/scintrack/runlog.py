@@ -9,18 +9,15 @@ import os
 import sys
 from pathlib import Path
 
-from . import errors, fast_exit, profiling
-from .pipeline import job_client
+from . import errors, profiling
 
 
 def setup(log_path: str | None, name: str) -> logging.Logger:
     """A logger writing to ``log_path`` (and stderr); Python warnings are captured.
 
-    Also the hook of the opt-in job profiler (:mod:`scintrack.profiling`) and of
-    the job's exit without a last full garbage collection (:mod:`scintrack.fast_exit`).
+    Also the hook of the opt-in job profiler (:mod:`scintrack.profiling`).
     """
     profiling.start(name)
-    fast_exit.install()
     logger = logging.getLogger(name)
     logger.setLevel(logging.INFO)
     logger.handlers.clear()
@@ -39,8 +36,6 @@ def setup(log_path: str | None, name: str) -> logging.Logger:
     errors.install_script_hook(lambda line: _to_log_file(logger, line))
     # the allocator setting the job runs with (the Snakefile sets it for every job; docs/performance.md)
     logger.info("GLIBC_TUNABLES=%s", os.environ.get("GLIBC_TUNABLES", "(unset)"))
-    if job_client.IN_CHILD:  # scintrack.pipeline.job_server
-        logger.info("process: a fork of the run's job server (pid %d)", os.getppid())
     return logger
 
 

@@ -2,7 +2,7 @@
 
 :func:`check_model_ranges` (called at the end of
 :func:`scintrack.config.check_consistency`) raises a one-line
-:class:`~scintrack.config.ConfigError` naming the key and the fix for:
+:class:`~scintrack.errors.ConfigError` naming the key and the fix for:
 
 * **S4 the CSM cannot realise.**  The CSM's Nakagami/Rician match
   ``m = max(1, 1/S4^2)`` makes every S4 >= 1 the S4 = 1 (Rayleigh) field, so
@@ -39,7 +39,7 @@ import math
 from collections.abc import Iterator, Mapping
 from typing import Any
 
-from .config import ConfigError
+from .errors import ConfigError
 from .models.lut import LOOKUP_TOL_S4, LOOKUP_TOL_TAU0, grid_of, nearest_point, within_tolerance
 from .signals.csm import S4_MAX
 

@@ -2,7 +2,7 @@
 
 PyYAML's ``CSafeLoader`` has the same constructor and resolver as ``SafeLoader``
 (so the same values) and parses config.yaml about 10x faster; every Snakemake
-start-up reads it (issue 14).  Where PyYAML was built without libyaml the
+start-up reads it.  Where PyYAML was built without libyaml the
 pure-Python ``SafeLoader`` is used.  A module of its own, importing nothing of
 the package: a reader of YAML (the dataset registry, the archive check) does not
 take the config module's imports into its code version.

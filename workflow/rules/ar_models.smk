@@ -3,13 +3,17 @@
 
 
 rule ar_fit:
-    """AR(1..max_order), PACF and PACF/AIC/BIC orders for one training set."""
+    """AR(1..max_order), PACF and PACF/AIC/BIC orders for one training set: the phase
+    models fitted on the unwrapped phase and, for reading R5, on the wrapped phase
+    (the amplitude fits are the same series, fitted once)."""
     input:
         train=lambda wc: training_path(wc.s4),
     output:
-        "results/ar_models/fits/s4-{s4}.nc",
+        unwrapped="results/ar_models/fits/s4-{s4}.nc",
+        wrapped="results/ar_models/wrapped/fits/s4-{s4}.nc",
     params:
         fit=lambda wc: P.ar_fit(config, wc.s4),
+        fit_wrapped=lambda wc: P.ar_fit(config, wc.s4, "wrapped"),
         code=code("fit_ar.py"),
     log:
         "logs/ar_models/fit_s4-{s4}.log",
@@ -64,29 +68,6 @@ rule ar_diagnostics:
         "../scripts/ar_diagnostics.py"
 
 
-# Reading R5 of the Vila-Valls simulation (issue 13): the same fits with the
-# phase models fitted on the wrapped phase, only when an experiment asks for
-# them (experiments.<name>.lut: wrapped).
-rule ar_fit_wrapped:
-    """AR fits of one training set with the phase models on the wrapped phase (amplitude fits copied from ar_fit)."""
-    input:
-        train=lambda wc: training_path(wc.s4),
-        unwrapped="results/ar_models/fits/s4-{s4}.nc",
-    output:
-        "results/ar_models/wrapped/fits/s4-{s4}.nc",
-    params:
-        fit=lambda wc: P.ar_fit(config, wc.s4, "wrapped"),
-        code=code("fit_ar.py"),
-    log:
-        "logs/ar_models/wrapped/fit_s4-{s4}.log",
-    threads: 1
-    resources:
-        mem_mb=RES.mem_mb("ar_fit_wrapped"),
-        runtime=RES.runtime("ar_fit_wrapped"),
-    script:
-        "../scripts/fit_ar.py"
-
-
 rule ar_lut_wrapped:
     """The AR look-up table of the wrapped-phase fits (reading R5)."""
     input:
@@ -106,20 +87,20 @@ rule ar_lut_wrapped:
         "../scripts/merge_lut.py"
 
 
-# Issue 13: achievability floors of the theta_d error per Table III cell.
+# Achievability floors of the theta_d error on the Table III cells.
 rule vv_floors:
-    """Riccati bound of the AEKF-AR's model and GLS floors in the CSM world (readings R1, R2) for one cell."""
+    """Riccati bound of the AEKF-AR's model and GLS floors in the CSM world (readings R1, R2), one file per cell."""
     input:
         lut=AR_LUT,
     output:
-        paths.floors_path("{scenario}"),
+        [paths.floors_path(s) for s in config["floors"]["scenarios"]],
     params:
-        run=lambda wc: P.floors(config, wc.scenario),
+        runs={s: P.floors(config, s) for s in config["floors"]["scenarios"]},
         code=code("floors.py"),
     log:
-        "logs/vila_valls_2018/floors_{scenario}.log",
+        "logs/vila_valls_2018/floors.log",
     benchmark:
-        "results/benchmarks/vv_floors/{scenario}.tsv"
+        "results/benchmarks/vv_floors.tsv"
     threads: 1
     resources:
         mem_mb=RES.mem_mb("vv_floors"),

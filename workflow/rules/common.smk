@@ -12,9 +12,10 @@ from snakemake.utils import update_config, validate
 sys.path.insert(0, str(Path(workflow.basedir) / "src"))
 
 from scintrack.codeversion import code_version
-from scintrack.config import SOURCE, ConfigError, check_consistency, format_validation_error, load_config, locate, typed_overrides
+from scintrack.config import SOURCE, check_consistency, format_validation_error, load_config, locate, typed_overrides
 from scintrack.data.registry import expected_sha256
-from scintrack.errors import PREFIX, InputError, one_line
+from scintrack.errors import PREFIX, ConfigError, InputError, one_line
+from scintrack.project import project_file
 from scintrack.pipeline import params as P
 from scintrack.pipeline import paths
 from scintrack.products import PAPERS, products
@@ -77,10 +78,7 @@ if RT_SOURCE == "surrogate":
 
 def repo_path(path):
     """A path from the config: absolute, or relative to the working directory if it exists there, else to the repository."""
-    p = Path(path)
-    if p.is_absolute() or p.exists():
-        return str(p)
-    return str(Path(workflow.basedir) / p)
+    return str(project_file(path))
 
 
 REGISTRY = repo_path(RT["registry"])
@@ -124,6 +122,27 @@ def experiment_params(wc):
         return P.experiment(config, wc.experiment, wc.scenario)
     except KeyError as exc:
         fail(str(exc).strip("'\""))
+
+
+def experiment_runs(experiment):
+    """scenario -> everything that scenario's result depends on, for the one job of a single-shard experiment."""
+    try:
+        return {s: P.experiment(config, experiment, s) for s in config["experiments"][experiment]["scenarios"]}
+    except KeyError as exc:
+        fail(str(exc).strip("'\""))
+
+
+def experiment_inputs(experiment):
+    """The AR look-up table of an experiment and the trace of each trace scenario (``trace_<scenario>``)."""
+    out = {"lut": paths.lut_path(config["experiments"][experiment].get("lut", "unwrapped"))}
+    for scenario in config["experiments"][experiment]["scenarios"]:
+        try:
+            trace = paths.scenario_trace_path(config, scenario)
+        except KeyError as exc:
+            fail(str(exc).strip("'\""))
+        if trace:
+            out[f"trace_{scenario}"] = trace
+    return out
 
 
 def shard_inputs(wc):

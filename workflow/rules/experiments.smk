@@ -1,8 +1,16 @@
-# Experiment rules (Vila-Valls 2018, Sec. VI-A..D, F): each (experiment,
-# scenario) runs as shards of trials, merged exactly into one NetCDF (or, with
-# one shard, as one job that does both).  Both
-# rules get every value the result depends on (scenario, tracker specs, the
-# tracking settings those trackers read, seed, sampling, trials) as params.
+# Experiment rules (Vila-Valls 2018, Sec. VI-A..D, F; Susi 2014; the cross-paper
+# ranking): every tracker of an experiment on every trial of its scenarios.
+# Every rule gets the values its results depend on (scenario, tracker specs,
+# the tracking settings those trackers read, seed, sampling, trials) as params.
+#
+# Two grains, chosen per experiment by its ``shards`` value in the config:
+# - ``shards: 1``: one job per experiment (rule ``tracking_<experiment>``) runs
+#   its scenarios one after the other, each written to its own result file;
+#   the trackers are imported once for all scenarios.
+# - ``shards: k > 1``: each (experiment, scenario) runs as k ``tracking_shard``
+#   jobs over blocks of trials (they bound memory and spread a long Monte
+#   Carlo over the cores) and one ``tracking_merge``.
+# Both give the same content bit for bit (tests/test_speed_paths.py).
 
 
 wildcard_constraints:
@@ -10,34 +18,31 @@ wildcard_constraints:
     scenario=r"[^/]+",
 
 
-# An experiment with shards > 1 runs as tracking_shard jobs + one tracking_merge per
-# scenario; with shards: 1 as one tracking_single job (shard and merge in one
-# process: one job start-up less per result, the same content bit for bit).
 _MULTI_SHARD = P.experiment_names_regex(config, multi_shard=True)
-_SINGLE_SHARD = P.experiment_names_regex(config, multi_shard=False)
 
 
-rule tracking_single:
-    """Run every tracker of a single-shard experiment on all trials of one scenario and merge, in one job."""
-    input:
-        unpack(shard_inputs),
-    output:
-        "results/experiments/{experiment}/{scenario}.nc",
-    params:
-        run=experiment_params,
-        code=code("run_tracking_single.py"),
-    wildcard_constraints:
-        experiment=_SINGLE_SHARD,
-    log:
-        "logs/experiments/{experiment}/{scenario}/single.log",
-    benchmark:
-        "results/benchmarks/tracking_single/{experiment}/{scenario}.tsv"
-    threads: 1
-    resources:
-        mem_mb=lambda wc: RES.shard_mem_mb(config, wc.experiment, wc.scenario, 0),
-        runtime=lambda wc: RES.shard_runtime(config, wc.experiment, wc.scenario, 0),
-    script:
-        "../scripts/run_tracking_single.py"
+for _experiment in P.single_shard_experiments(config):
+
+    rule:
+        name:
+            f"tracking_{_experiment}"
+        input:
+            **experiment_inputs(_experiment),
+        output:
+            [paths.exp_result(_experiment, s) for s in config["experiments"][_experiment]["scenarios"]],
+        params:
+            runs=experiment_runs(_experiment),
+            code=code("run_experiment.py"),
+        log:
+            f"logs/experiments/{_experiment}.log",
+        benchmark:
+            f"results/benchmarks/tracking_experiment/{_experiment}.tsv"
+        threads: 1
+        resources:
+            mem_mb=RES.experiment_mem_mb(config, _experiment),
+            runtime=RES.experiment_runtime(config, _experiment),
+        script:
+            "../scripts/run_experiment.py"
 
 
 rule tracking_shard:

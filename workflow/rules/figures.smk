@@ -1,8 +1,8 @@
 # Figure rules: read results, never simulate.  Each figure is a rule named
 # after it (``snakemake --cores 2 fig01``) and a report() output.  The list of
 # figures, their inputs and arguments is declared on the figure functions
-# themselves (decorators in src/scintrack/figures/*.py, see
-# src/scintrack/products.py); a rule owns the checksum manifest.
+# themselves (decorators in src/scintrack/products/figures/*.py, see
+# src/scintrack/products/registry.py); a rule owns the checksum manifest.
 
 for _name, _product in FIGURES.items():
     _out = _product.outputs(config)

@@ -99,46 +99,27 @@ rule trace_diagnostics:
         "../scripts/trace_diagnostics.py"
 
 
-rule trace_static:
-    """Dynamics-free scintillation tracking with the AEKF-AR (Fig. 11, Table V)."""
-    input:
-        trace=lambda wc: TRACE_FILES[wc.event],
-        models=paths.trace_models_path(config, "{event}"),
-    output:
-        paths.trace_static_path(config, "{event}"),
-    params:
-        run=lambda wc: P.trace_static(config, wc.event),
-        code=code("trace_experiment.py"),
-    log:
-        f"logs/real_traces/{RT_SOURCE}/static_{{event}}.log",
-    benchmark:
-        f"results/benchmarks/trace_static/{RT_SOURCE}_{{event}}.tsv"
-    threads: 1
-    resources:
-        mem_mb=RES.mem_mb("trace_static"),
-        runtime=RES.runtime("trace_static"),
-    script:
-        "../scripts/trace_experiment.py"
-
-
-rule trace_dynamics:
-    """Every tracker on the trace plus the aeronautical dynamics (Fig. 15, Tables VI, VIII)."""
+rule trace_tracking:
+    """Dynamics-free scintillation tracking with the AEKF-AR (Fig. 11, Table V) and every
+    tracker on the trace plus the aeronautical dynamics (Fig. 15, Tables VI, VIII), on one event."""
     input:
         trace=lambda wc: TRACE_FILES[wc.event],
         models=paths.trace_models_path(config, "{event}"),
         lut=AR_LUT,
     output:
-        paths.trace_dynamics_path(config, "{event}"),
+        static=paths.trace_static_path(config, "{event}"),
+        dynamics=paths.trace_dynamics_path(config, "{event}"),
     params:
-        run=lambda wc: P.trace_dynamics(config, wc.event),
+        static=lambda wc: P.trace_static(config, wc.event),
+        dynamics=lambda wc: P.trace_dynamics(config, wc.event),
         code=code("trace_experiment.py"),
     log:
-        f"logs/real_traces/{RT_SOURCE}/dynamics_{{event}}.log",
+        f"logs/real_traces/{RT_SOURCE}/tracking_{{event}}.log",
     benchmark:
-        f"results/benchmarks/trace_dynamics/{RT_SOURCE}_{{event}}.tsv"
+        f"results/benchmarks/trace_tracking/{RT_SOURCE}_{{event}}.tsv"
     threads: 1
     resources:
-        mem_mb=RES.mem_mb("trace_dynamics"),
-        runtime=RES.runtime("trace_dynamics"),
+        mem_mb=RES.mem_mb("trace_tracking"),
+        runtime=RES.runtime("trace_tracking"),
     script:
         "../scripts/trace_experiment.py"

@@ -1,7 +1,7 @@
 # Table rules: read results, write CSV + Markdown and a paper-vs-reproduced
 # twin.  The list of tables, their inputs and output stems is declared on the
-# table functions themselves (decorators in src/scintrack/tables/*.py, see
-# src/scintrack/products.py); a rule owns the checksum manifest.
+# table functions themselves (decorators in src/scintrack/products/tables/*.py, see
+# src/scintrack/products/registry.py); a rule owns the checksum manifest.
 
 for _name, _product in TABLES.items():
 

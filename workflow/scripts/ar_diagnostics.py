@@ -1,9 +1,5 @@
 """Analysis rule entry point: spectra and PACF behind Figs. 1-4."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 import xarray as xr
 
 from scintrack import runlog

@@ -1,10 +1,6 @@
 """Checksum rule entry point: ``SHA256SUMS`` (sha256sum format) of the rule's inputs,
 named relative to the manifest's folder."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.checksums import write_checksums
 

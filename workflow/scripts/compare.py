@@ -1,9 +1,5 @@
 """Publication rule entry point: the paper-vs-reproduced page."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.archive.compare import collect, render, summary
 from scintrack.io import write_text

@@ -1,9 +1,5 @@
 """Data rule entry point: the dataset manifest (data/manifest.json)."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.data.manifest import build_manifest
 from scintrack.io import pretty_json, write_text

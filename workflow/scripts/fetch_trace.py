@@ -1,9 +1,5 @@
 """Data rule entry point: fetch one real trace and verify its sha256."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 import sys
 from datetime import UTC, datetime
 

@@ -1,9 +1,5 @@
 """Data rule entry point: generate one versioned CSM training dataset."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.data.synthetic import csm_training_dataset, csm_training_version
 from scintrack.errors import InputError

@@ -1,9 +1,5 @@
 """Data rule entry point: the SKYDEL-like IQ recordings (clean and jammed segments) of the jammed GPS scenario."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.data.gps_iq import iq_version
 from scintrack.data.gps_iq_build import record, write

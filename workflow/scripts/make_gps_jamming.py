@@ -1,12 +1,8 @@
 """Data rule entry point: the jammed GPS L1 C/A scenario dataset (Zhao et al.)."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
-from scintrack.data.gps_jamming import gps_jamming_version
 from scintrack.data.gps_jamming_build import build
+from scintrack.data.gps_jamming_spec import gps_jamming_version
 from scintrack.errors import InputError
 from scintrack.io import provenance, write_netcdf
 

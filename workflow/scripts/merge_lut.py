@@ -1,9 +1,5 @@
 """AR rule entry point: merge per-S4 fits into the AR look-up table."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.io import open_dataset, provenance, write_netcdf
 from scintrack.models.lut import merge_lut

@@ -1,9 +1,5 @@
 """Experiment rule entry point: merge shards into one result with statistics."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.experiments.merge import merged_result
 from scintrack.io import open_dataset, write_netcdf

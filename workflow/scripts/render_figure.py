@@ -6,15 +6,11 @@ it).  Inputs are passed as opened Datasets by keyword, ``params.kwargs`` as
 extra arguments.
 """
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.experiments.guards import divergence_note
-from scintrack.figures.common import add_footer, save_figure
 from scintrack.io import open_dataset
 from scintrack.products import get
+from scintrack.products.figures.common import add_footer, save_figure
 
 sm = snakemake  # noqa: F821
 product = get(sm.params.product, sm.params.module)

@@ -5,15 +5,11 @@ The function (found through :mod:`scintrack.products`) returns
 ``<stem>_csv`` and ``<stem>_md`` outputs.
 """
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.experiments.guards import divergence_note
 from scintrack.io import open_dataset
 from scintrack.products import get
-from scintrack.tables.common import join_notes, write_table
+from scintrack.products.tables.common import join_notes, write_table
 
 sm = snakemake  # noqa: F821
 product = get(sm.params.product, sm.params.module)

@@ -1,9 +1,5 @@
 """Experiment rule entry point: one shard of a tracking Monte Carlo (:mod:`scintrack.experiments.shard_job`)."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.experiments.shard_job import shard_result
 from scintrack.io import write_netcdf

@@ -1,9 +1,5 @@
 """Susi 2014 rule entry point: S4, Phi60, Phi3 and T, p of one trace scenario (Figs. 3 and 6)."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.experiments.susi_indices import scenario_indices
 from scintrack.experiments.traces import scenario_trace

@@ -1,9 +1,5 @@
 """Data rule entry point: validate a real trace and write it in the canonical format."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.data.traces import TraceFormatError, load_trace
 from scintrack.io import content_hash, provenance, sha256_file, write_netcdf

@@ -1,9 +1,5 @@
 """Sec. VI-E rule entry point: S4(t) and segment PACFs of every trace (Figs. 12-14)."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.experiments.traces import trace_diagnostics
 from scintrack.io import open_dataset, provenance, write_netcdf

@@ -1,9 +1,5 @@
 """Publication rule entry point: verify the bundle against itself and the regenerated results."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 import sys
 
 from scintrack import runlog

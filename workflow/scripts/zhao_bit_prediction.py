@@ -1,9 +1,5 @@
 """Result rule entry point: the upload-robust bit prediction of every satellite of the jammed dataset."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.experiments.gps_bit_prediction import predictions
 from scintrack.io import open_dataset, provenance, write_netcdf

@@ -1,9 +1,5 @@
 """Result rule entry point: C/N0 estimated from correlator outputs over the jammed GPS scenario."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.experiments.gps_cn0 import estimate
 from scintrack.io import open_dataset, provenance, write_netcdf

@@ -1,9 +1,5 @@
 """Result rule entry point: spectra (raw and despread) of the clean and jammed IQ recordings."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.data.gps_iq_build import sv_signal
 from scintrack.experiments.iq_spectrum import spectra

@@ -1,9 +1,5 @@
 """Result rule entry point: positions and metrics of the jamming receiver from its channels."""
 
-from scintrack.pipeline.job_client import delegate
-
-delegate(snakemake.threads)  # noqa: F821 - run in a fork of the warm job server if the run has one (scintrack.pipeline.job_server)
-
 from scintrack import runlog
 from scintrack.experiments.gps_positioning import receiver_result
 from scintrack.io import open_dataset, provenance, write_netcdf

@@ -3,7 +3,7 @@
 The paper's SKYDEL run was recorded as complex baseband at 12.5 MS/s; a
 4-minute recording would be 12 GB, so we record two short segments of the
 scenario (``gps_jamming.iq``: one before, one after the jammer onset) from the
-scenario's truth (:mod:`scintrack.data.gps_jamming`) with
+scenario's truth (:mod:`scintrack.data.gps_jamming_spec`) with
 :func:`scintrack.signals.gps.iq.synthesise`: every satellite with its real
 C/A code, code phase, carrier phase, Doppler and data bits at the segment's
 time, thermal noise at the configured clean C/N0, and in the jammed segment
@@ -30,7 +30,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
-from .gps_jamming import CODE_PERIOD_S, gps_jamming_params, gps_jamming_version
+from .gps_jamming_spec import CODE_PERIOD_S, gps_jamming_params, gps_jamming_version
 from .versioning import code_version, dataset_version
 
 if TYPE_CHECKING:

@@ -10,7 +10,7 @@ import xarray as xr
 
 from ..signals.gps import iq
 from .gps_iq import CHIPS, GENERATOR, GENERATOR_VERSION, NAME, check_segments, iq_version, segment_seed, segments
-from .gps_jamming import CODE_PERIOD_S
+from .gps_jamming_spec import CODE_PERIOD_S
 
 
 def sv_signal(ds: xr.Dataset, k: int, start_s: float, n_ms: int) -> iq.SvSignal:

@@ -1,4 +1,4 @@
-"""Build the jammed GPS scenario dataset described in :mod:`scintrack.data.gps_jamming`.
+"""Build the jammed GPS scenario dataset described in :mod:`scintrack.data.gps_jamming_spec`.
 
 Kept apart from the light params/version module so that the workflow's DAG
 parsing does not import the orbit, clock and message code; the dataset's
@@ -18,7 +18,7 @@ from ..io import sha256_file
 from ..models import clock as clock_model
 from ..seeding import stable_key
 from ..signals.gps import ephemeris, geometry, jamming, message, orbit
-from .gps_jamming import CODE_PERIOD_S, F_L1, GENERATOR, GENERATOR_VERSION, LAMBDA_L1, NAME, C, gps_jamming_version
+from .gps_jamming_spec import CODE_PERIOD_S, F_L1, GENERATOR, GENERATOR_VERSION, LAMBDA_L1, NAME, C, gps_jamming_version
 
 LIGHT_TIME_ITERATIONS = 3
 CLOCK_MARGIN_S = 1.0  # the clock is simulated over the scenario plus this much on each side
@@ -92,7 +92,7 @@ def _arrival(m: np.ndarray, m_ref: int, t0: float, truth: dict[str, np.ndarray],
 
 
 def build(params: Mapping[str, Any], path: str | Path) -> xr.Dataset:
-    """The dataset for ``params`` (:func:`scintrack.data.gps_jamming.gps_jamming_params`) from the ephemerides at ``path``."""
+    """The dataset for ``params`` (:func:`scintrack.data.gps_jamming_spec.gps_jamming_params`) from the ephemerides at ``path``."""
     path = Path(path)
     _check_file(path, params)
     ephs = ephemeris.load(path)

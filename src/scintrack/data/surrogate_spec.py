@@ -3,7 +3,7 @@
 The config-shaping half of :mod:`scintrack.data.surrogate`, without numpy,
 xarray or the phase-screen generator: the workflow calls these functions
 whenever Snakemake builds the DAG (a rule's params, a trace's path), which
-must not load the numerical stack (issue 14).  :mod:`.surrogate` generates
+must not load the numerical stack.  :mod:`.surrogate` generates
 the event and re-exports everything here.
 
 The version is :func:`.versioning.code_version` of the generator module

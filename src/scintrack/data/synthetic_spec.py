@@ -3,7 +3,7 @@
 The config-shaping half of :mod:`scintrack.data.synthetic`, without numpy,
 xarray or the generator: the workflow calls these functions whenever
 Snakemake builds the DAG (a rule's params, a dataset's path), which must not
-load the numerical stack (issue 14).  :mod:`.synthetic` generates the
+load the numerical stack.  :mod:`.synthetic` generates the
 dataset and re-exports everything here.
 
 The version is :func:`.versioning.code_version` of the generator module

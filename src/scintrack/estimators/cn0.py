@@ -10,16 +10,16 @@ This is the estimator of GNSS-SDR's ``cn0_m2m4_estimator`` (reference notes
 Under scintillation the "signal power" is ``A^2 rho^2`` averaged over the
 window, which is what an adaptive R should follow.  When ``2 m2^2 < m4``
 (a deep fade or too few samples) the signal power is floored at
-``floor_fraction * m2``.  The scalar formulas live once, as numba blocks in
-:mod:`scintrack.trackers.blocks` (the trackers' kernels use them); the
-functions here are their vectorised (ufunc) forms.
+``floor_fraction * m2``.  The scalar formulas live once, in
+:mod:`.formulas` (the trackers' kernels use them too); the functions here
+are their vectorised (ufunc) forms.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..trackers import blocks
+from . import formulas
 from .window import SlidingSums
 
 #: epochs before the first M2M4 estimate (the prior is used until then) and the
@@ -37,14 +37,14 @@ def m2m4(prompts: np.ndarray, axis: int = -1, floor_fraction: float = M2M4_FLOOR
 
 
 def _split(m2: np.ndarray, m4: np.ndarray, floor_fraction: float) -> tuple[np.ndarray, np.ndarray]:
-    """Array form of :func:`scintrack.trackers.blocks.m2m4_split`."""
-    pd = blocks.m2m4_signal_power_ufunc(m2, m4, float(floor_fraction))
+    """Array form of :func:`.formulas.m2m4_split`."""
+    pd = formulas.m2m4_signal_power_ufunc(m2, m4, float(floor_fraction))
     return pd, m2 - pd
 
 
 def cn0_from_powers(signal_power: np.ndarray, noise_power: np.ndarray, ts: float) -> np.ndarray:
-    """C/N0 in linear Hz (:func:`scintrack.trackers.blocks.cn0_from_powers`)."""
-    return blocks.cn0_from_powers_ufunc(signal_power, noise_power, float(ts))
+    """C/N0 in linear Hz (:func:`.formulas.cn0_from_powers`)."""
+    return formulas.cn0_from_powers_ufunc(signal_power, noise_power, float(ts))
 
 
 def to_dbhz(cn0: np.ndarray) -> np.ndarray:

@@ -29,17 +29,17 @@ Streaming moments are taken over a sliding window of the last ``window``
 epochs, with no detrending (the tracker's input has no slow power trend in our
 scenarios).  This is the estimator the AEKF-AR uses to adapt (Vila-Valls
 2018, Sec. V-B); the paper cites [65] without giving one.  The scalar formulas
-are the numba blocks :func:`scintrack.trackers.blocks.s4_corrected` and
-:func:`~scintrack.trackers.blocks.window_variance`; the functions here are
-their array forms.
+are :func:`scintrack.estimators.formulas.s4_corrected` and
+:func:`~scintrack.estimators.formulas.window_variance` (the AEKF-AR's kernel
+calls them); the functions here are their array forms.
 
 Not estimable.  When the signal power is not resolvable (``S = E[I] - s2 <=
 0.1 s2``) or the estimate is absurd (NaN, or ``S4 >= 2``), the noise-corrected
 S4 is NaN, "not estimable" (the bounds and why:
-:func:`scintrack.trackers.blocks.s4_corrected`, constants
-``blocks.S4_SIGNAL_FRACTION`` and ``blocks.S4_ESTIMABLE_MAX``), never a
-number: before, the floor ``S >= 1e-12`` turned an unresolvable signal into
-S4 up to 2.7e12 (C/N0 = 10 dB-Hz).  So :func:`s4_corrected`,
+:func:`scintrack.estimators.formulas.s4_corrected`, constants
+``formulas.S4_SIGNAL_FRACTION`` and ``formulas.S4_ESTIMABLE_MAX``), never a
+number (the floor ``S >= 1e-12`` alone turns an unresolvable signal into
+S4 up to 2.7e12 at C/N0 = 10 dB-Hz).  So :func:`s4_corrected`,
 :func:`s4_batch`, :func:`detrended_s4` and :class:`StreamingS4` may return
 NaN; a caller that aggregates them must use the NaN-aware reductions and say
 what fraction was estimable (:func:`estimable_fraction`).  :func:`s4_index`
@@ -53,13 +53,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..trackers import blocks
+from . import formulas
 from .window import SlidingSums
 
 
 def s4_corrected(mean_i: np.ndarray, var_i: np.ndarray, noise_power: np.ndarray | float) -> np.ndarray:
-    """Noise-corrected S4 from the intensity mean and variance (:func:`.blocks.s4_corrected`); NaN: not estimable."""
-    return blocks.s4_corrected_ufunc(np.asarray(mean_i, dtype=float), np.asarray(var_i, dtype=float), np.asarray(noise_power, dtype=float))
+    """Noise-corrected S4 from the intensity mean and variance (:func:`.formulas.s4_corrected`); NaN: not estimable."""
+    return formulas.s4_corrected_ufunc(np.asarray(mean_i, dtype=float), np.asarray(var_i, dtype=float), np.asarray(noise_power, dtype=float))
 
 
 def s4_batch(prompts: np.ndarray, noise_power: float | np.ndarray, axis: int = -1) -> np.ndarray:
@@ -108,7 +108,7 @@ class StreamingS4:
         if count < self.min_epochs:
             return self.prior
         mean = sums[:, 0] / count
-        var = blocks.window_variance_ufunc(sums[:, 0], sums[:, 1], float(count))
+        var = formulas.window_variance_ufunc(sums[:, 0], sums[:, 1], float(count))
         est = s4_corrected(mean, var, noise_power)
         self.held = np.where(np.isnan(est), self.held, est)
         return est

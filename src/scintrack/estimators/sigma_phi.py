@@ -24,7 +24,7 @@ detrending) and its std is taken per window.
   integration"), the SAKF PLL's gain-weighting input.
 
 Variances are population variances (ddof = 0), as ``np.std`` and the trackers'
-:func:`scintrack.trackers.blocks.window_mean_var`.  scipy is imported inside
+:func:`scintrack.estimators.formulas.window_mean_var`.  scipy is imported inside
 the functions so that importing the package stays light.
 """
 
@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..trackers import blocks
+from . import formulas
 
 
 def detrend_sos(ts: float, cutoff_hz: float = 0.1, order: int = 6) -> np.ndarray:
@@ -96,7 +96,7 @@ def phi3_sliding(theta: np.ndarray, ts: float, window_s: float = 3.0, cutoff_hz:
 
     NaN until the window is full.  Vectorised over leading axes with
     cumulative sums of x and x^2; the variance is the trackers' floored
-    window formula (:func:`scintrack.trackers.blocks.window_variance`), so
+    window formula (:func:`.formulas.window_variance`), so
     this is what a kernel using ``window_push``/``window_mean_var`` returns
     (to rounding).
     """
@@ -112,5 +112,5 @@ def phi3_sliding(theta: np.ndarray, ts: float, window_s: float = 3.0, cutoff_hz:
     c2 = np.concatenate([zero, np.cumsum(hp * hp, axis=-1)], axis=-1)
     s1 = c1[..., n:] - c1[..., :-n]
     s2 = c2[..., n:] - c2[..., :-n]
-    out[..., n - 1 :] = np.sqrt(blocks.window_variance_ufunc(s1, s2, float(n)))
+    out[..., n - 1 :] = np.sqrt(formulas.window_variance_ufunc(s1, s2, float(n)))
     return out

@@ -65,7 +65,7 @@ its mean over the steady-state window ``steady_start_s <= t < duration_s``.
     tests).  Evaluated on every ``stride``-th epoch of the window (default 10;
     var_k is smooth in k) from the full N x N model (no decimation).
 
-    How (c) is computed (:func:`_differenced_kriging_variance`, issue 14).  With
+    How (c) is computed (:func:`_differenced_kriging_variance`).  With
     a flat prior on the polynomial, theta_d = X a + d has the improper prior
     ``exp(-1/2 (D3 theta)^T S3^-1 (D3 theta))``: the third difference ``D3``
     annihilates the quadratic, and ``D3 d`` is *exactly* stationary, an MA(2)
@@ -143,6 +143,7 @@ from ..models.ar import ArModel, ScintillationAR, fit_ar
 from ..models.lut import TABLE_I_PHASE_ORDER, scintillation_ar
 from ..models.regions import region_of
 from ..progress import Progress
+from ..settings import FLOORS_KEYS, TrackingSettings
 from ..signals.correlator import noise_power
 from ..signals.csm import wrapped_phase
 from ..trackers.base import companion, dynamics_F, dynamics_Q
@@ -460,7 +461,7 @@ def gls_error_variance(cov_s: np.ndarray, *, ts: float, cn0_dbhz: float, duratio
     t = np.arange(n) * ts
     k = np.arange(int(round(steady_start_s / ts)), n, stride)
     X = np.vander(t / duration_s, 3, increasing=True)  # scaled basis: same span, better conditioned
-    if q_jerk == 0:  # C = C_s + R_phi I is Toeplitz: Levinson, O(n^2), the 3 columns of X in one pass (issue 14)
+    if q_jerk == 0:  # C = C_s + R_phi I is Toeplitz: Levinson, O(n^2), the 3 columns of X in one pass
         col = cov_s[:n].copy()
         col[0] += phase_noise_variance(cn0_dbhz, ts)
         V = np.linalg.inv(X.T @ solve_toeplitz(col, X))
@@ -519,8 +520,8 @@ def floors_table(lut, scenarios: Sequence[tuple[float, float]], *, tracking: Map
                  stride: int = 10, progress=None) -> Any:
     """All floors for the (S4, tau0) cells: ``xarray.Dataset`` with dims (scenario, reading, floor).
 
-    ``tracking``: the config section (``cn0_dbhz``, ``amplitude``, ``q_jerk_hz2_s3``,
-    ``p0_diag``, ``theta_s_p0``, ``rho_p0``, ``steady_state_start_s``).  Variables:
+    ``tracking``: the tracking settings of :data:`.settings.FLOORS_KEYS` (``cn0_dbhz``, ``amplitude``,
+    ``q_jerk_hz2_s3``, ``p0_diag``, ``theta_s_p0``, ``rho_p0``, ``steady_state_start_s``).  Variables:
     ``rmse`` (the floor [rad]), ``ci_low``/``ci_high`` (95%, group split; NaN where the
     floor is not a Monte Carlo estimate), ``wrapped_rmse`` (RMS of the wrapped
     Gaussian error with the floor's per-epoch variances, the comparator for a
@@ -532,10 +533,11 @@ def floors_table(lut, scenarios: Sequence[tuple[float, float]], *, tracking: Map
     """
     import xarray as xr
 
-    cn0, amp, q = float(tracking["cn0_dbhz"]), float(tracking["amplitude"]), float(tracking["q_jerk_hz2_s3"])
-    start = float(tracking["steady_state_start_s"])
-    ric_kw = dict(cn0_dbhz=cn0, ts=ts, q_jerk=q, amplitude=amp, p0_diag=tracking["p0_diag"], theta_s_p0=float(tracking["theta_s_p0"]),
-                  rho_p0=float(tracking["rho_p0"]), duration_s=duration_s, steady_start_s=start)
+    tr = TrackingSettings.from_params(tracking, require=FLOORS_KEYS)
+    cn0, amp, q = tr.cn0_dbhz, tr.amplitude, tr.q_jerk_hz2_s3
+    start = tr.steady_state_start_s
+    ric_kw = dict(cn0_dbhz=cn0, ts=ts, q_jerk=q, amplitude=amp, p0_diag=tr.p0_diag, theta_s_p0=tr.theta_s_p0,
+                  rho_p0=tr.rho_p0, duration_s=duration_s, steady_start_s=start)
     gls_kw = dict(ts=ts, cn0_dbhz=cn0, duration_s=duration_s, steady_start_s=start)
     n = int(round(duration_s / ts))
     shape = (len(scenarios), len(READINGS), len(FLOORS))

@@ -5,11 +5,11 @@ upload-robust prediction of each satellite's stream
 (:func:`scintrack.signals.gps.bit_prediction.robust_prediction`) over the
 scenario's frames, from the first navigation bit to 30 s after the end
 (:func:`span`).  It depends on the navigation file and on the dataset's
-timing only: not on the C/N0, the trials or the receiver settings.  Every
-channel job and every point of the C/N0 sweep used to compute it again (about
-1 CPU-s per satellite, a quarter of a sweep point: issue 14); the rule
-``zhao_bit_prediction`` now writes it once (:func:`predictions`) and those
-jobs read it (:func:`prediction_of`), the same arrays.
+timing only: not on the C/N0, the trials or the receiver settings.  So the
+rule ``zhao_bit_prediction`` writes it once (:func:`predictions`) and every
+channel job and every point of the C/N0 sweep reads it
+(:func:`prediction_of`) instead of computing it (about 1 CPU-s per
+satellite, a quarter of a sweep point).
 
 Layout: ``bits`` and ``mask`` (``sv``, ``nav_bit``; int8, the mask 1 where
 every alternative history transmits the same bit), per satellite its ``prn``

@@ -82,8 +82,8 @@ def prompts_1ms(stream: NoiseStream, trials: Sequence[int], k: int, phi_res: np.
 def _prompts_kernel(sr, si, sigma, noise, out):
     """``out[t, e] = (sr[e] + sigma[e] noise[t, e, 1]) + j (si[e] + sigma[e] noise[t, e, 4])`` (IP and QP columns).
 
-    The values of numpy's ``signal + sigma * (noise[..., 1] + 1j * noise[..., 4])``, which this replaced
-    (issue 14, seventeenth round): there each product by ``sigma`` is rounded once and the sums are exact
+    The values of numpy's ``signal + sigma * (noise[..., 1] + 1j * noise[..., 4])``: there each product by
+    ``sigma`` is rounded once and the sums are exact
     componentwise, as here (no fused multiply-add: numba does not contract), without its three
     (trials, epochs) complex temporaries.
     """

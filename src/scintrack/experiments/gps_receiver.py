@@ -161,8 +161,8 @@ def run_mm(tracker, y20: np.ndarray, init: TrackInit, source: PriorSource):
 
     Each iteration after the first resumes the previous one (``tracker.resume``, when the tracker has it,
     as :class:`~scintrack.trackers.mm_kf.MMKF` does): a trial is filtered again only from the first sum
-    whose prior changed, with the bits of a run over the whole span (issue 14: the iterations changed the
-    priors from a frame 14-225 s into the 240-s span, so ~60 % of the filtering was a repeat).
+    whose prior changed, with the bits of a run over the whole span (the iterations change the priors
+    from a frame 14-225 s into the 240-s span, so ~60 % of a whole rerun would be a repeat).
     """
     strategy = source.strategy
     trials = y20.shape[0]
@@ -235,7 +235,7 @@ def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[
         """DLL of one carrier tracker on the E/L columns of the same noise draws (phase/frequency at 1 ms).
 
         Consumes its arguments: the errors are computed in their memory (the same subtraction, without two
-        new (trials, epochs) arrays and their page faults per call; issue 14)."""
+        new (trials, epochs) arrays and their page faults per call)."""
         phase_err, freq_err = np.subtract(phase1, phi, out=phase1), np.subtract(freq1, f_res, out=freq1)
         return dll.run(noise, cn0, bits, phase_err, freq_err, spacing_chips=spacing,
                        bandwidth_hz=float(rc["dll"]["bandwidth_hz"]), integration_ms=int(rc["dll"]["integration_ms"]),
@@ -243,7 +243,7 @@ def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[
 
     # Each tracker's DLL runs as soon as its carrier estimates exist, and the 1-ms arrays behind it are
     # dropped, so at most one tracker's (trials, epochs) intermediates are held at a time (peak memory
-    # of the job, issue 14); the arithmetic is the same as running every DLL at the end.
+    # of the job); the arithmetic is the same as running every DLL at the end.
     pll = _tracker(params["trackers"], rc["pll"], gp.CODE_PERIOD_S)
     init1 = TrackInit(phase=np.full(n_tr, phi[0]), doppler_hz=np.full(n_tr, f_res[0]), rate_hz_s=np.zeros(n_tr))
     p_out = pll.run(y1, init1)

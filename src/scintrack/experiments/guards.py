@@ -46,8 +46,8 @@ bit for bit.
 figures and tables print, and says where on-line S4 estimates were not
 estimable (nan-aware means).  The render rules add it to every product
 (``workflow/scripts/render_figure.py``: a footer,
-:func:`scintrack.figures.common.add_footer`; ``render_table.py``: appended
-to the table's note, :func:`scintrack.tables.common.join_notes`), so no
+:func:`scintrack.products.figures.common.add_footer`; ``render_table.py``: appended
+to the table's note, :func:`scintrack.products.tables.common.join_notes`), so no
 figure or table function has to remember it; inputs without the guard's
 variables (LUTs, diagnostics, the GPS channel results) add nothing.
 
@@ -119,7 +119,7 @@ def guarded(out) -> dict[str, np.ndarray]:
 
 def _bad(key: str, v: np.ndarray) -> np.ndarray:
     # The mask form of the guard's test (sanitize needs it per entry); detect finds the first such entry
-    # per trial with the compiled scan trackers.kernels.first_nonfinite_kernel, which applies the same test.
+    # per trial with the compiled scan reductions.first_nonfinite_kernel, which applies the same test.
     bad = ~np.isfinite(v)
     if key in PHASES:
         bad |= np.abs(np.where(bad, 0.0, v)) > PHASE_LIMIT_RAD
@@ -137,7 +137,7 @@ def detect(out, ts: float | None = None) -> Divergence:
     if theta.ndim != 2:
         raise ValueError(f"theta_d must be shaped (trials, epochs) (got {theta.shape})")
     n_tr, k = theta.shape
-    from ..trackers.kernels import first_nonfinite_kernel, first_step_kernel  # compiled scans: no full-size masks
+    from .reductions import first_nonfinite_kernel, first_step_kernel  # compiled scans: no full-size masks
 
     candidates = {}
     first = np.full(n_tr, -1, dtype=np.int64)

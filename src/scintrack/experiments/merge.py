@@ -6,7 +6,7 @@ the on-line S4 mean is weighted by estimable trial-epochs (:func:`_s4_mean`).
 
 Kept apart from the runner so that a merge job imports xarray and numpy only
 (no tracker, no numba): with ~70 merges in the full DAG, the import time of
-each job counts (issue 14).
+each job counts.
 """
 
 from __future__ import annotations

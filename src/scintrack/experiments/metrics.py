@@ -41,14 +41,13 @@ def wrap(e: np.ndarray) -> np.ndarray:
 
     A value in [-pi, pi] is returned as it is (a loop in lock: most samples);
     others lose the nearest whole number of cycles with a two-part 2 pi, to
-    the last place of the exact reduction (:func:`~scintrack.trackers.kernels.wrap_kernel`).
-    Until issue 14's sixteenth round this was ``arctan2(sin e, cos e)``, which
-    returns an in-range value only to within a unit in its last place and
-    cost ~40 ns per sample in libm, about a sixth of a tracking job: the
-    results differ from those by rounding only (``docs/performance.md``).
-    NaN and +-inf give NaN, as before.
+    the last place of the exact reduction (:func:`~.reductions.wrap_kernel`).
+    ``arctan2(sin e, cos e)`` returns an in-range value only to within a
+    unit in its last place and costs ~40 ns per sample in libm, about a sixth
+    of a tracking job; the two forms differ by rounding only.  NaN and +-inf
+    give NaN.
     """
-    from ..trackers.kernels import wrap_kernel
+    from .reductions import wrap_kernel
 
     a = np.asarray(e, dtype=float)
     flat = np.ascontiguousarray(a).reshape(-1)
@@ -65,10 +64,10 @@ def derotated_sums(y: np.ndarray, phase: np.ndarray, per: int, start: int = 0, c
     values of ``(y * numpy.exp(-1j * phase))[:, start:start + count per].reshape(trials, count, per).sum(-1)``
     (the lock detector's and the Costas PLL's bit sums), bit for bit for arrays of 256 KiB and more on a
     CPU with FMA, to a few units in the last place otherwise (numpy's complex product and pairwise sum:
-    :func:`~scintrack.trackers.kernels.derotated_sums_kernel`), without that form's (trials, epochs)
-    temporaries (issue 14, seventeenth round).
+    :func:`~.reductions.derotated_sums_kernel`), without that form's (trials, epochs)
+    temporaries.
     """
-    from ..trackers.kernels import derotated_sums_kernel
+    from .reductions import derotated_sums_kernel
 
     y = np.asarray(y)
     phase = np.asarray(phase, dtype=float)
@@ -118,7 +117,7 @@ def count_cycle_slips(e_unwrapped: np.ndarray, hysteresis: float = 0.5) -> np.nd
 
 def slip_counts(e_unwrapped: np.ndarray, hysteresis: float, settle: int) -> tuple[np.ndarray, np.ndarray]:
     """(cycles slipped, slip events) per trial (compiled kernel)."""
-    from ..trackers.kernels import cycle_slip_kernel
+    from .reductions import cycle_slip_kernel
 
     return cycle_slip_kernel(np.ascontiguousarray(np.atleast_2d(e_unwrapped), dtype=float), float(hysteresis), int(max(settle, 1)))
 

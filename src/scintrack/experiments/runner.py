@@ -53,10 +53,10 @@ error) and ``slip_events_total`` / ``slips_total`` (tracker, trial).
 
 Lock (every tracker): the standard narrow-band phase lock detector on the
 prompts de-rotated by the tracker's total-phase estimate, over consecutive
-blocks of ``tracking.lock_window_s`` (0.2 s): ``C2phi = ((sum I)^2 -
+blocks of ``tracking.lock_window_s``: ``C2phi = ((sum I)^2 -
 (sum Q)^2) / ((sum I)^2 + (sum Q)^2)`` (``cos 2 dphi`` without noise), and,
 since every signal here is a pilot, ``sum I > 0``; a block is in lock when
-both hold with ``C2phi >= tracking.lock_threshold`` (0.85, |dphi| < 16 deg).
+both hold with ``C2phi >= tracking.lock_threshold`` (0.85: |dphi| < 16 deg).
 ``time_in_lock`` (tracker, trial) is the fraction of blocks in lock in the
 steady-state window, so an RMSE near pi/sqrt(3) can be read as what it is (a
 tracker out of lock).
@@ -80,6 +80,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from ..batching import BATCH_TRIAL_EPOCHS, METRIC_ROWS, trial_batches
 from ..io import canonical_json
 from ..progress import Progress
 from ..signals.row_blocks import spans
@@ -87,12 +88,13 @@ from ..trackers import registry
 from ..trackers.base import TrackerContext
 from ..trackers.held_series import HeldSeries
 from . import guards
-from .batching import BATCH_TRIAL_EPOCHS, METRIC_ROWS, trial_batches
 from .merge import MONITORS, merge  # noqa: F401  (merge: re-exported; it lives in .merge, light to import)
 from .metrics import derotated_sums, slip_counts, unwrapped_error, wrap
 from .scenario import acquisition, effective_tracking, scenario_epochs, simulate
 
 KINDS = ("wrapped", "unwrapped")
+#: the optional tracker outputs the metrics read (:meth:`scintrack.trackers.base.Tracker.request`)
+WANTED = ("total_phase", "theta_s", "s4_hat", "discriminator", "frequency_hz", *MONITORS)
 
 
 def block_mean(a: np.ndarray, block: int) -> np.ndarray:
@@ -220,7 +222,7 @@ class TrialMedian:
     dropped then; a single batch holding every trial is used as it is (no copy).
     All-NaN epochs (the SAKF's monitors before their first window) give NaN
     without a warning.  The median is the compiled
-    :func:`~scintrack.trackers.kernels.column_nanmedian_kernel`: numpy's own
+    :func:`~.reductions.column_nanmedian_kernel`: numpy's own
     over fewer than 600 trials sorts masked copies of the whole array (~0.5 s
     and ~0.3 GB of fresh memory per SAKF in a 25 x 300 000 shard).  A held
     series (:class:`ColumnLayout`) is reduced on its runs.
@@ -243,7 +245,7 @@ class TrialMedian:
             values = self.values
         self.filled += rows.shape[0]
         if self.filled == self.n:
-            from ..trackers.kernels import column_nanmedian_kernel  # np.nanmedian(values, axis=0), bit for bit, no masked copies
+            from .reductions import column_nanmedian_kernel  # np.nanmedian(values, axis=0), bit for bit, no masked copies
 
             self.median = np.empty(values.shape[1])
             column_nanmedian_kernel(np.asarray(values, dtype=float), self.median)
@@ -314,15 +316,15 @@ def run_shard(
     trials = np.asarray(list(trials))
     n_tr = trials.size
     n_epochs = scenario_epochs(scenario, ts)
-    block = max(int(round(float(tracking.get("stats_resolution_s", ts)) / ts)), 1)
+    block = max(int(round(tracking.stats_resolution_s / ts)), 1)
     n_stat = n_epochs // block
-    per_window = max(int(round(float(tracking.get("jitter_window_s", 60.0)) / ts)), 1)
+    per_window = max(int(round(tracking.jitter_window_s / ts)), 1)
     n_windows = n_epochs // per_window
-    steady = slice(int(round(float(tracking["steady_state_start_s"]) / ts)), None)
+    steady = slice(int(round(tracking.steady_state_start_s / ts)), None)
     if steady.start >= n_epochs:
         raise ValueError(f"scenario {scenario_name!r}: steady_state_start_s is beyond its duration")
-    hyst = float(tracking["slip_hysteresis_rad"])
-    settle = int(round(float(tracking["slip_settle_s"]) / ts))
+    hyst = tracking.slip_hysteresis_rad
+    settle = int(round(tracking.slip_settle_s / ts))
     nt = len(tracker_names)
     sq = [[RowSum() for _ in KINDS] for _ in range(nt)]
     sq2 = [[RowSum() for _ in KINDS] for _ in range(nt)]
@@ -342,45 +344,44 @@ def run_shard(
     monitor_acc: dict[tuple[int, str], NanMean | TrialMedian] = {}  # (tracker, monitor): T is a median over trials, the others means
     ms_tot = np.zeros((nt, n_tr))
     lock = np.zeros((nt, n_tr))
-    lock_per = max(int(round(float(tracking.get("lock_window_s", 0.2)) / ts)), 1)
-    lock_threshold = float(tracking.get("lock_threshold", 0.85))
+    lock_per = max(int(round(tracking.lock_window_s / ts)), 1)
+    lock_threshold = tracking.lock_threshold
     slips_tot = np.zeros((nt, n_tr), dtype=np.int64)
     events_tot = np.zeros_like(slips_tot)
-    context = TrackerContext(scenario=scenario, tracking=tracking, lut=lut, ts=ts, trace_set=trace_set)
+    context = TrackerContext(scenario=scenario, tracking=tracking.given(), lut=lut, ts=ts, trace_set=trace_set)
     prog = Progress(nt * n_tr * n_epochs, unit="filter-epochs", log=progress, label=f"{scenario_name} ({n_tr} trials)")
     first = None  # the first batch's truths: the example trial and the scenario's profile
     # Each tracker is built once and runs every batch (a tracker holds its settings, no run state): a build
-    # may look AR models up in the table, ten pairs for an adaptive AEKF-AR (issue 14, sixteenth round).
+    # may look AR models up in the table, ten pairs for an adaptive AEKF-AR.
     trackers = [registry.build(name, tracker_specs[name], context) for name in tracker_names]
+    given = [tracker.request(WANTED) for tracker in trackers]  # the optional outputs each tracker's run gives
+    for j, tracker in enumerate(trackers):
+        if tracker.design_point is not None:
+            design[j] = tracker.design_point
     for lo, hi in trial_batches(n_tr, n_epochs, batch_trial_epochs):
         real = simulate(scenario_name, scenario, tracking, seed=seed, ts=ts, nspa=nspa, warmup_s=warmup_s, trials=trials[lo:hi], lut=lut, trace=trace)
         init = acquisition(real, tracking)
         # The scintillation's phase and amplitude are not needed once the prompts and the total phase exist:
         # theta_s's array becomes the total phase (the same sum, in place) and rho_s is released, so a
-        # batch holds two (trials, epochs) arrays fewer (120 MB in a Susi shard; issue 14, round 13).
+        # batch holds two (trials, epochs) arrays fewer (120 MB in a Susi shard).
         total_phase = np.add(real.theta_d, real.theta_s, out=real.theta_s)
         real.theta_s = real.rho_s = None
         if first is None:
             first = {"s4_t": real.s4_t, "tau0_t": real.tau0_t, "time": real.time, "total_phase": total_phase[0].copy()}
         rows = slice(lo, hi)
         for j, (name, tracker) in enumerate(zip(tracker_names, trackers)):
-            if hasattr(tracker, "ar_sets"):  # the AEKF-AR: its scintillation phase (and the adaptive S4) estimates
-                tracker.record = ("theta_s", "s4_hat") if getattr(tracker, "adaptive", False) else ("theta_s",)
-            tracker_init = init
-            if getattr(tracker, "noise_estimate", "") == "reference":
-                tracker_init = replace(init, noise_reference=real.noise_reference())
-            point = getattr(tracker, "design_point", None)
-            if point is not None:
-                design[j] = point
+            tracker_init = replace(init, noise_reference=real.noise_reference()) if tracker.needs_noise_reference else init
             out = tracker.run(real.y, tracker_init)
+            if set(out.extras) != given[j]:
+                raise RuntimeError(f"tracker {name!r} gave the outputs {sorted(out.extras)}, its request() declared {sorted(given[j])}")
             div = guards.detect(out, ts)
             div_epoch[j, rows], div_reason[j, rows] = div.epoch, div.reason
             out = guards.sanitize(out, div, fallback=init.phase)
             for r0, r1 in spans(hi - lo, METRIC_ROWS):  # the metrics a few trials at a time: small temporaries
                 c, g = slice(r0, r1), slice(lo + r0, lo + r1)  # rows of the batch, of the shard
-                if "total_phase" in out.extras:
+                if "total_phase" in given[j]:
                     total_hat = out.extras["total_phase"][c]
-                elif "theta_s" in out.extras:
+                elif "theta_s" in given[j]:
                     total_hat = out.theta_d[c] + out.extras["theta_s"][c]
                 else:
                     total_hat = out.theta_d[c]
@@ -399,21 +400,21 @@ def run_shard(
                 slips[j, g], events[j, g] = slip_counts(eu, hyst, settle)
                 if g.start == 0:
                     example[j] = block_mean(eu[0], block)
-                if "s4_hat" in out.extras:
+                if "s4_hat" in given[j]:
                     s4_med[j, g] = s4_acc.setdefault(j, S4Statistics()).add(out.extras["s4_hat"][c], steady)
-                if "discriminator" in out.extras:
+                if "discriminator" in given[j]:
                     disc = out.extras["discriminator"][c]
                     jit_disc[j, g] = window_std(disc, per_window)
                     jit_track[j, g] = window_std(wrap(out.theta_d[c] - total_phase[c]), per_window)
                     if g.start == 0:
                         ex_disc[j] = block_mean(disc[0], block)
-                if "frequency_hz" in out.extras and g.start == 0:
+                if "frequency_hz" in given[j] and g.start == 0:
                     ex_freq[j] = block_mean(out.extras["frequency_hz"][0], block)
                 for m in MONITORS:
-                    if m in out.extras and m != "T":
+                    if m in given[j] and m != "T":
                         monitor_acc.setdefault((j, m), NanMean()).add(out.extras[m][c])
                 eu = e = e2 = disc = None
-            if "T" in out.extras:  # a median over trials: fed a whole batch at a time
+            if "T" in given[j]:  # a median over trials: fed a whole batch at a time
                 monitor_acc.setdefault((j, "T"), TrialMedian(n_tr)).add(out.extras["T"])
             out = None  # the next tracker runs without this one's arrays
             prog.add((hi - lo) * n_epochs, note=f"{name} done (trials {trials[lo]}..{trials[hi - 1]})")
@@ -475,9 +476,9 @@ def run_shard(
     ds.attrs.update(
         {
             "scenario": scenario_name,
-            "steady_state_start_s": float(tracking["steady_state_start_s"]),
+            "steady_state_start_s": tracking.steady_state_start_s,
             "slip_hysteresis_rad": hyst,
-            "slip_settle_s": float(tracking["slip_settle_s"]),
+            "slip_settle_s": tracking.slip_settle_s,
             "stats_block_epochs": block,
             "jitter_window_s": per_window * ts,
             "lock_window_s": lock_per * ts,

@@ -28,7 +28,7 @@ cases) take the scintillation from a recorded trace passed as ``trace``;
 their ``ts`` and ``tracking`` overrides are applied by the caller
 (:func:`effective_tracking`, :mod:`.runner`).
 
-``csm_phase: wrapped`` (reading R2 of the Vila-Valls simulation, issue 13)
+``csm_phase: wrapped`` (reading R2 of the Vila-Valls simulation)
 takes theta_s as the wrapped angle of the CSM field, arg z in (-pi, pi],
 instead of its unwrapped phase.  The prompts are the same (``exp(j theta)``
 is 2 pi-periodic); only the decomposition of the truth changes.
@@ -54,6 +54,7 @@ import numpy as np
 
 from ..models.ar import ScintillationAR
 from ..models.lut import scintillation_ar
+from ..settings import EXPERIMENT_KEYS, TrackingSettings
 from ..signals.correlator import complex_noise, noise_power, prompts
 from ..signals.csm import Segment, generate_csm, generate_csm_profile, wrapped_phase
 from ..signals.dynamics import initial_phases, third_order_phase
@@ -108,15 +109,15 @@ def ar_scintillation(seed: int, name: str, trials: np.ndarray, n_epochs: int, mo
     return theta, rho
 
 
-def effective_tracking(scenario: Mapping[str, Any], tracking: Mapping[str, Any]) -> dict[str, Any]:
-    """The shared tracking settings with the scenario's own ``tracking`` overrides
-    (e.g. the estimator windows in epochs of a 1-ms scenario)."""
-    return {**tracking, **dict(scenario.get("tracking", {}))}
+def effective_tracking(scenario: Mapping[str, Any], tracking: Mapping[str, Any]) -> TrackingSettings:
+    """The experiment's tracking settings (:data:`.settings.EXPERIMENT_KEYS` required) with the scenario's
+    own ``tracking`` overrides (e.g. the estimator windows in epochs of a 1-ms scenario)."""
+    return TrackingSettings.from_params({**tracking, **dict(scenario.get("tracking", {}))}, require=EXPERIMENT_KEYS)
 
 
-def scenario_dynamics(scenario: Mapping[str, Any], tracking: Mapping[str, Any]) -> tuple[float, float]:
+def scenario_dynamics(scenario: Mapping[str, Any], tracking: TrackingSettings) -> tuple[float, float]:
     """(f_d0 [Hz], f_r [Hz/s]): the scenario's own values, else the shared ones."""
-    return float(scenario.get("fd0_hz", tracking["fd0_hz"])), float(scenario.get("fr_hz_s", tracking["fr_hz_s"]))
+    return float(scenario.get("fd0_hz", tracking.fd0_hz)), float(scenario.get("fr_hz_s", tracking.fr_hz_s))
 
 
 def clock_phase(seed: int, name: str, trials: np.ndarray, n_epochs: int, ts: float, preset: str) -> np.ndarray:
@@ -136,7 +137,7 @@ def scenario_epochs(scenario: Mapping[str, Any], ts: float) -> int:
     return int(round(float(scenario["duration_s"]) / ts))
 
 
-def acquisition(real: Realisation, tracking: Mapping[str, Any], static: bool = False):
+def acquisition(real: Realisation, tracking: TrackingSettings, static: bool = False):
     """Initial values every tracker gets: phase of the first prompt, nominal Doppler, zero rate.
 
     ``static``: the dynamics are known to be zero (phase, Doppler and rate 0).
@@ -154,14 +155,14 @@ def acquisition(real: Realisation, tracking: Mapping[str, Any], static: bool = F
 
 
 def simulate(
-    name: str, scenario: Mapping[str, Any], tracking: Mapping[str, Any], *, seed: int, ts: float, nspa: int, warmup_s: float,
+    name: str, scenario: Mapping[str, Any], tracking: TrackingSettings, *, seed: int, ts: float, nspa: int, warmup_s: float,
     trials: Sequence[int], lut=None, trace: tuple[np.ndarray, np.ndarray] | None = None, dynamics: bool = True,
 ) -> Realisation:
     n_epochs = scenario_epochs(scenario, ts)
     trials = np.asarray(list(trials))
     name = str(scenario.get("realisations_of", name))  # the seed streams (another scenario's realisations)
-    amp = float(tracking["amplitude"])
-    cn0 = float(scenario.get("cn0_dbhz", tracking["cn0_dbhz"]))
+    amp = tracking.amplitude
+    cn0 = float(scenario.get("cn0_dbhz", tracking.cn0_dbhz))
     fd0, fr = scenario_dynamics(scenario, tracking)
     if dynamics:
         theta0 = initial_phases(seed, f"scenario/{name}/theta0", trials)

@@ -1,18 +1,17 @@
 """The experiment jobs of the workflow: one shard of trials, and one whole (experiment, scenario).
 
 An (experiment, scenario) whose trials are split into ``shards > 1`` runs as
-one ``tracking_shard`` job per block of trials plus one ``tracking_merge``;
-with ``shards: 1`` it runs as one ``tracking_single`` job that does both in
-one process (issue 14: it saves a job start-up, ~1.3 s of CPU, per result;
-~50 of the full DAG's results are single-shard).  The single job's result is
-the merge of its one shard after an exact NetCDF round trip, so it has the
-content of the two-job path bit for bit (``tests/test_speed_paths.py``).
+one ``tracking_shard`` job per block of trials plus one ``tracking_merge``.
+An experiment with ``shards: 1`` runs as one job that calls
+:func:`single_result` for each of its scenarios: the shard and the merge in
+one process.  The single result is the merge of its one shard after an exact
+NetCDF round trip, so it has the content of the two-job path bit for bit
+(``tests/test_speed_paths.py``).
 
-Everything comes from the rule's ``params.run``
-(:func:`scintrack.pipeline.params.experiment`, plus the shard's ``trials``);
-the result records the hash of exactly those values.  A trace scenario
-(Susi 2014) also reads its trace: the AR models of its fitting part and the
-part it tracks.
+Everything comes from the rule's params (:func:`scintrack.pipeline.params.experiment`,
+plus the shard's ``trials``); the result records the hash of exactly those values.
+A trace scenario (Susi 2014) also reads its trace: the AR models of its fitting
+part and the part it tracks.
 """
 
 from __future__ import annotations
@@ -46,7 +45,7 @@ def shard_result(run: Mapping[str, Any], trials: Sequence[int], *, lut: str, tra
     )
     tracking = effective_tracking(scenario, run["tracking"])
     fd0, fr = scenario_dynamics(scenario, tracking)
-    ds.attrs.update({"cn0_dbhz": float(scenario.get("cn0_dbhz", tracking["cn0_dbhz"])), "fd0_hz": fd0, "fr_hz_s": fr, "ts": float(run["ts"])})
+    ds.attrs.update({"cn0_dbhz": float(scenario.get("cn0_dbhz", tracking.cn0_dbhz)), "fd0_hz": fd0, "fr_hz_s": fr, "ts": float(run["ts"])})
     if source is not None:
         ds.attrs.update({"trace_source": source, "trace_name": scenario["trace"]["name"],
                          "title": f"{run['scenario_name']}: {'SURROGATE' if source == 'surrogate' else 'REAL'} scintillation trace"})
@@ -63,7 +62,8 @@ def single_result(run: Mapping[str, Any], *, lut: str, trace: str | None = None,
     the two jobs, so that the merge sees the same types and values.  Both write
     that hand-off uncompressed (the result itself is compressed): zlib changes
     no value, and the hand-off is written ~4x and read ~4x faster (a 40-MB
-    cycle-slip result 0.45 -> 0.10 s and 0.10 -> 0.025 s; issue 14).
+    cycle-slip result: written in 0.10 s instead of 0.45, read in 0.025 s
+    instead of 0.10).
     """
     shard = shard_result(run, range(int(run["n_trials"])), lut=lut, trace=trace, inputs=inputs, progress=progress)
     with tempfile.TemporaryDirectory(prefix="scintrack-shard-") as tmp:

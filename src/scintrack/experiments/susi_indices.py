@@ -48,7 +48,7 @@ def scenario_indices(
     rho, theta = trace
     tracking = effective_tracking(scenario, tracking)
     real = simulate(scenario_name, scenario, tracking, seed=seed, ts=ts, nspa=1, warmup_s=0.0, trials=[trial], trace=trace)
-    context = TrackerContext(scenario=scenario, tracking=tracking, ts=ts)
+    context = TrackerContext(scenario=scenario, tracking=tracking.given(), ts=ts)
     out = registry.build(tracker_name, tracker_spec, context).run(real.y, acquisition(real, tracking))
     t_w, s4_true = detrended_s4(real.rho_s[0] ** 2, ts, window_s, detrend_hz)
     _, s4_rx = detrended_s4(np.abs(real.y[0]) ** 2, ts, window_s, detrend_hz, noise_power=real.noise_power)
@@ -73,5 +73,5 @@ def scenario_indices(
             "tp_time": ("tp_time", t_tp, {"units": "s", "long_name": "end of the 3-s window"}),
         },
         attrs={"scenario": scenario_name, "window_s": window_s, "phi3_window_s": phi3_window_s, "detrend_hz": detrend_hz, "trial": trial,
-               "cn0_dbhz": float(scenario.get("cn0_dbhz", tracking["cn0_dbhz"])), "ts": ts, "monitor_tracker": tracker_name},
+               "cn0_dbhz": float(scenario.get("cn0_dbhz", tracking.cn0_dbhz)), "ts": ts, "monitor_tracker": tracker_name},
     )

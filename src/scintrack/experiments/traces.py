@@ -44,7 +44,7 @@ from ..trackers import registry
 from ..trackers.base import TrackerContext
 from .metrics import mean_with_ci, wrap
 from .runner import run_shard, tracker_labels
-from .scenario import acquisition, simulate
+from .scenario import acquisition, effective_tracking, simulate
 
 MAX_LAGS = 3
 
@@ -183,15 +183,16 @@ def static_experiment(
     bands = list(ds["band"].values)
     event = ds.attrs["event"]
     scenario = {"duration_s": eval_s, "segments": []}
+    tracking = effective_tracking(scenario, tracking)
     n = int(round(eval_s / ts))
     rms = {k: np.zeros((len(bands), len(trials))) for k in ("rho", "theta", "abs_rho", "theta_unwrapped")}
     ex = {k: np.zeros((len(bands), n)) for k in ("rho_true", "rho_hat", "theta_true", "theta_hat")}
     for j, band in enumerate(bands):
         trace = segment(ds, band, fit_s, eval_s, ts)
         real = simulate(f"trace/{event}/{band}/static", scenario, tracking, seed=seed, ts=ts, nspa=1, warmup_s=0.0, trials=trials, trace=trace, dynamics=False)
-        context = TrackerContext(scenario=scenario, tracking=tracking, lut=None, ts=ts, trace_set=trace_ar_set(models, band))
+        context = TrackerContext(scenario=scenario, tracking=tracking.given(), lut=None, ts=ts, trace_set=trace_ar_set(models, band))
         tracker = registry.build(tracker_name, tracker_spec, context)
-        tracker.record = ("theta_s", "rho_s")
+        tracker.request(("theta_s", "rho_s"))
         out = tracker.run(real.y, acquisition(real, tracking, static=True))
         theta_hat = out.theta_d + out.extras["theta_s"]  # theta_d stays 0: the scintillation phase estimate
         rms["rho"][j] = np.mean((out.extras["rho_s"] - real.rho_s) ** 2, axis=1)
@@ -211,7 +212,7 @@ def static_experiment(
         data[f"example_{k}"] = (("band", "time"), v)
     return xr.Dataset(
         data, coords={"band": bands, "trial": np.asarray(list(trials)), "time": ("time", np.arange(n) * ts, {"units": "s"})},
-        attrs={"event": event, "source": ds.attrs["source"], "fit_s": fit_s, "eval_s": eval_s, "cn0_dbhz": float(tracking["cn0_dbhz"]),
+        attrs={"event": event, "source": ds.attrs["source"], "fit_s": fit_s, "eval_s": eval_s, "cn0_dbhz": tracking.cn0_dbhz,
                "tracker_labels": tracker_labels([tracker_name], {tracker_name: tracker_spec})},
     )
 

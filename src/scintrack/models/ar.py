@@ -155,7 +155,7 @@ def _autoreg_fits(x: np.ndarray, orders: list[int], trend: str, hold_back: int) 
     results are AutoReg's bit for bit (``tests/test_ar.py`` compares
     parameters, sigma2, AIC and BIC as uint64 against AutoReg on many series);
     the eight fits of a 30 000-sample phase series take ~2.4x less time and of
-    an amplitude series ~4x less (``docs/performance.md``, issue 14).
+    an amplitude series ~4x less (``docs/performance.md``).
     """
     from statsmodels.regression.linear_model import OLS  # imported here: heavy, and the AR types are used without it
     from statsmodels.tools import eval_measures

@@ -60,7 +60,7 @@ def fit_training_set(
     instead of the stored unwrapped one (reading R5 of the Vila-Valls simulation).
     ``reuse``: the unwrapped fits of the same training set and settings; with
     ``wrap_phase`` their amplitude component is copied instead of refitted (the
-    amplitude series is the same, so are its fits: issue 14).
+    amplitude series is the same, so are its fits).
     ``progress``: where to write progress lines (series fitted, rate, ETA).
 
     ``pacf_lengths_s`` adds the PACF-rule order measured on the first
@@ -206,8 +206,8 @@ def _nearest_indices(lut: xr.Dataset, s4: float, tau0: float) -> tuple[int, int]
     """Positions of the nearest grid S4 and tau0: the pandas look-up behind ``lut.sel(..., method="nearest")``.
 
     Called directly, once per model pair, without building selected
-    sub-datasets (xarray's ``sel`` took 3-5 ms a call and a pair made three,
-    twice over: an adaptive AEKF-AR builds ten pairs; issue 14).  Ties are
+    sub-datasets (xarray's ``sel`` takes 3-5 ms a call and a pair would make
+    three, twice over: an adaptive AEKF-AR builds ten pairs).  Ties are
     broken as pandas breaks them; a value with no nearest point (NaN) raises
     ``KeyError`` as ``sel`` does.
     """

@@ -287,7 +287,7 @@ def run(
     k_gain = loop_gain(bandwidth_hz, t_int) / t_int
     # The gains of the C/N0 as given (a per-epoch row, usually), broadcast to the grid afterwards: the same
     # values element by element as computing them on the (trials, epochs) grid, without two grid-sized
-    # arrays per call (issue 14, seventeenth round: ~0.1-0.4 s a call, 16 calls per Zhao sweep point).
+    # arrays per call (~0.1-0.4 s a call, 16 calls per Zhao sweep point).
     _as_grid(cn0_dbhz, shape, "cn0_dbhz")
     a, sigma = correlator.gains(np.asarray(cn0_dbhz, dtype=float), CODE_PERIOD_S, gain, cn0_ref_dbhz)
     dtau0 = np.asarray(dtau0_chips, dtype=float)

@@ -15,7 +15,7 @@ plain JSON-able dicts.  Scripts read these params, never ``snakemake.config``.
 
 Snakemake imports this module and calls these functions whenever it builds
 the DAG, so they import only light modules (the ``*_spec`` halves of the
-dataset modules, never numpy, xarray or numba: issue 14); the tracking keys of
+dataset modules, never numpy, xarray or numba); the tracking keys of
 a tracker spec, which need the tracker modules, are remembered per code
 version (:func:`_tracking_keys`).
 """
@@ -28,13 +28,11 @@ from typing import Any
 from ..codeversion import remembered
 from ..data.surrogate_spec import surrogate_params
 from ..data.synthetic_spec import csm_training_params
+from ..settings import EXPERIMENT_KEYS, FLOORS_KEYS
 from . import paths
 
 # tracking settings that define the scenario (truth, observations) and the metrics
-SCENARIO_TRACKING_KEYS = (
-    "cn0_dbhz", "amplitude", "fd0_hz", "fr_hz_s", "steady_state_start_s", "slip_hysteresis_rad", "slip_settle_s", "stats_resolution_s", "jitter_window_s",
-    "lock_window_s", "lock_threshold",
-)
+SCENARIO_TRACKING_KEYS = EXPERIMENT_KEYS
 
 
 def _sampling(config: Mapping[str, Any]) -> dict[str, Any]:
@@ -166,12 +164,17 @@ def floors(config: Mapping[str, Any], scenario: str) -> dict[str, Any]:
     filters use, the AR look-up table and the Monte Carlo settings."""
     sc = config["scenarios"][scenario]
     (seg,) = sc["segments"]
-    keys = ("cn0_dbhz", "amplitude", "q_jerk_hz2_s3", "p0_diag", "theta_s_p0", "rho_p0", "steady_state_start_s")
+    keys = FLOORS_KEYS
     return {
         "scenario": scenario, "s4": float(seg["s4"]), "tau0": float(seg["tau0"]),
         "tracking": {k: config["tracking"][k] for k in keys}, "seed": int(config["seed"]), **_sampling(config),
         "floors": {k: v for k, v in config["floors"].items() if k != "scenarios"}, "lut": ar_lut(config),
     }
+
+
+def single_shard_experiments(config: Mapping[str, Any]) -> list[str]:
+    """The experiments with ``shards: 1``, in config order (each runs as one job over its scenarios)."""
+    return [n for n, e in config["experiments"].items() if int(e["shards"]) == 1]
 
 
 def experiment_names_regex(config: Mapping[str, Any], *, multi_shard: bool) -> str:
@@ -188,13 +191,12 @@ def shard_trials(config: Mapping[str, Any], name: str, shard: int) -> list[int]:
 
     The trials are dealt out as evenly as possible, in whole lane blocks of ``LANES`` (32) trials when that
     takes fewer of them: the compiled trackers run a lane block's trials side by side and cost as much for
-    a block's last few trials as for 32, so 500 trials in 5 shards of 100 (3 blocks and 4 trials each) ran
-    20 blocks, and as 96, 96, 128, 96 and 84 trials they run 16 (issue 14).  A trial's results are the
-    same bits in any shard; the merge adds the shards' per-epoch sums, so another split groups those
-    additions differently (in ``cycle_slips``: 1.5e-15 relative in ``sq_sum``, no count changed, every
-    table and figure the same; ``docs/performance.md``, twentieth round).
+    a block's last few trials as for 32, so 500 trials in 5 shards run as 96, 96, 128, 96 and 84 trials
+    (16 blocks) rather than 5 x 100 (20 blocks).  A trial's results are the same bits in any shard; the
+    merge adds the shards' per-epoch sums, so another split groups those additions differently (at the
+    rounding level: 1.5e-15 relative in ``sq_sum`` of ``cycle_slips``, no count, table or figure changes).
     """
-    from ..trackers.lanes import LANES  # light (no numba)
+    from ..simd import LANES  # light (no numba)
 
     spec = config["experiments"][name]
     n, k = int(spec["trials"]), int(spec["shards"])
@@ -260,7 +262,7 @@ def trace_dynamics(config: Mapping[str, Any], event: str) -> dict[str, Any]:
 
 
 def gps_dataset(config: Mapping[str, Any]) -> dict[str, Any]:
-    from ..data.gps_jamming import gps_jamming_params
+    from ..data.gps_jamming_spec import gps_jamming_params
 
     return gps_jamming_params(config)
 

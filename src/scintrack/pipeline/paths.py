@@ -18,7 +18,7 @@ VV_DIAGNOSTICS = "results/vila_valls_2018/ar_diagnostics.nc"
 
 
 def floors_path(scenario: str) -> str:
-    """The achievability floors of one Table III cell (issue 13; ``scenario`` may be a wildcard)."""
+    """The achievability floors of one Table III cell (``scenario`` may be a wildcard)."""
     return f"results/vila_valls_2018/floors/{scenario}.nc"
 DATASET_MANIFEST = "data/manifest.json"
 
@@ -130,7 +130,7 @@ def zhao_channel(prn: int | str) -> str:
 
 
 def gps_dataset_path(config: Mapping[str, Any]) -> str:
-    from ..data.gps_jamming import NAME, gps_jamming_params, gps_jamming_version
+    from ..data.gps_jamming_spec import NAME, gps_jamming_params, gps_jamming_version
 
     return f"data/synthetic/{NAME}/{gps_jamming_version(gps_jamming_params(config))}.nc"
 

@@ -47,18 +47,16 @@ MIN_RUNTIME_MIN = 5  # ... and never below 5 minutes (start-up, a loaded or slow
 # processes on the two cores, hence larger).
 MEASURED: dict[str, tuple[float, float]] = {
     "csm_training_set": (267.1, 5.3),
-    "ar_fit": (196.6, 33.3),
+    "ar_fit": (196.6, 75.5),  # the unwrapped and the wrapped fits of one training set
     "ar_lut": (102.3, 2.8),
-    "ar_fit_wrapped": (191.8, 42.2),
     "ar_lut_wrapped": (102.3, 3.7),
     "ar_diagnostics": (188.4, 4.8),
-    "vv_floors": (491.0, 4.5),  # 2026-12-03 (full run): floor (c) by the differenced O(N^2) route, no N x N matrix
+    "vv_floors": (491.0, 27.0),  # the six Table III cells one after the other (4.5 s each)
     "tracking_merge": (334.1, 3.0),
     "surrogate_event": (231.8, 15.7),
     "trace_ar_models": (287.5, 5.1),
     "trace_diagnostics": (344.8, 5.9),
-    "trace_static": (502.4, 9.1),
-    "trace_dynamics": (550.1, 12.3),
+    "trace_tracking": (550.1, 21.4),  # the static and the dynamics experiment of one event, one after the other
     "susi_surrogate": (272.1, 28.7),
     "susi_indices": (332.7, 8.3),
     "gps_jamming_dataset": (407.3, 5.6),
@@ -74,7 +72,7 @@ MEASURED: dict[str, tuple[float, float]] = {
 # Tracking shards (rule tracking_shard), fitted to the 105 shards of the full
 # run and the smoke run: peak memory = SHARD_BASE_MB + SHARD_KB_PER_TRIAL_EPOCH
 # x trials held x epochs (the simulated signals of the trials a shard holds at
-# once, scintrack.experiments.batching.trials_held; the CSM and AR worlds also
+# once, scintrack.batching.trials_held; the CSM and AR worlds also
 # hold the nspa sub-samples), wall = SHARD_START_S + SHARD_US_PER_FILTER_EPOCH x
 # trials x epochs x trackers.  Largest measured before the batching: cycle_slips
 # (100 trials x 50000 epochs, 5 trackers) 2102 MB and 23 s; susi_alpha (25
@@ -127,7 +125,7 @@ def shard_size(config: Mapping[str, Any], experiment: str, scenario: str, shard:
 
 def shard_mem_mb(config: Mapping[str, Any], experiment: str, scenario: str, shard: int) -> int:
     """Declared memory of one tracking shard: its modelled peak x MEM_MARGIN (the same for 10x the trials: batches)."""
-    from ..experiments.batching import trials_held
+    from ..batching import trials_held
 
     trials, epochs, _, model = shard_size(config, experiment, scenario, shard)
     kb = SHARD_KB_PER_TRIAL_EPOCH.get(model, max(SHARD_KB_PER_TRIAL_EPOCH.values()))
@@ -138,6 +136,20 @@ def shard_runtime(config: Mapping[str, Any], experiment: str, scenario: str, sha
     """Declared run time of one tracking shard: its modelled wall x RUNTIME_FACTOR."""
     trials, epochs, trackers, _ = shard_size(config, experiment, scenario, shard)
     return runtime_for(SHARD_START_S + SHARD_US_PER_FILTER_EPOCH * 1e-6 * trials * epochs * trackers)
+
+
+def experiment_mem_mb(config: Mapping[str, Any], experiment: str) -> int:
+    """Declared memory of a single-shard experiment's job: the largest of its scenarios (they run one after the other)."""
+    return max(shard_mem_mb(config, experiment, s, 0) for s in config["experiments"][experiment]["scenarios"])
+
+
+def experiment_runtime(config: Mapping[str, Any], experiment: str) -> int:
+    """Declared run time of a single-shard experiment's job: the sum of its scenarios' modelled walls x RUNTIME_FACTOR."""
+    wall = 0.0
+    for scenario in config["experiments"][experiment]["scenarios"]:
+        trials, epochs, trackers, _ = shard_size(config, experiment, scenario, 0)
+        wall += SHARD_US_PER_FILTER_EPOCH * 1e-6 * trials * epochs * trackers
+    return runtime_for(SHARD_START_S + wall)
 
 
 def _zhao_scale(config: Mapping[str, Any], *keys: str) -> float:

@@ -118,7 +118,7 @@ def wrapped_phase(theta: np.ndarray) -> np.ndarray:
     numpy's own route, kept as it is: this phase is the trackers' input, and a
     closed loop turns any rounding change into a different run, so it is not
     :func:`scintrack.experiments.metrics.wrap` (a whole-cycle reduction that
-    agrees to the last place only; issue 14).
+    agrees to the last place only).
     """
     return np.angle(np.exp(1j * np.asarray(theta)))
 
@@ -223,8 +223,8 @@ def trial_chunks(n_trials: int, n_sub: int, budget_bytes: int | None = None) -> 
     defaults to its ``CHUNK_BYTES``, 8 MB: a 500-s scenario one row at a time);
     the values do not depend on the blocking, since every operation is per
     row (one seed stream, one filter pass, one normalisation per trial).
-    Blocks of 64 MB (before the thirteenth round of issue 14) made a 500-s
-    cycle-slip shard ~250 MB larger and cost it 2-3 s of page faults.
+    Blocks of 64 MB would make a 500-s cycle-slip shard ~250 MB larger and
+    cost it 2-3 s of page faults.
     """
     return row_blocks(n_trials, 16 * max(n_sub, 1), budget_bytes)
 

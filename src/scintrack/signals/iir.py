@@ -2,8 +2,8 @@
 
 The CSM's diffuse field is complex white noise through a real 2nd-order
 Butterworth filter at the sub-sample rate (:func:`.csm.butterworth`); after
-the random numbers it is the largest cost of generating CSM data (issue 14:
-15 CPU-s of a full run in ``scipy.signal.lfilter``).  scipy filters complex
+the random numbers it is the largest cost of generating CSM data (~15 CPU-s
+of a full run in ``scipy.signal.lfilter``).  scipy filters complex
 input in its generic complex loop (``cmplx_filt`` in scipy's
 ``signal/_lfilter.cc``, direct form II transposed with the state ``Z`` at
 rest or ``zi``): for every sample and coefficient it forms ``t = c
@@ -27,8 +27,8 @@ has neither), with two changes that change no bit:
 
 No fused multiply-add is formed (numba does not contract without
 ``fastmath``; scipy's loop is built for the x86-64 baseline, without FMA).
-Any other shape of filter goes to scipy itself.  Measured in
-``docs/performance.md`` (twenty-first round).
+Any other shape of filter goes to scipy itself.  Four or more rows side by
+side take ~4.5 ns a sample, scipy's loop ~13.7 ns (``docs/performance.md``).
 """
 
 from __future__ import annotations

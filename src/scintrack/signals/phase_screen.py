@@ -82,7 +82,7 @@ def fresnel_propagate(phase: np.ndarray, dx: float, carrier_hz: float, height_m:
 def _unit_phasor(phase, out):
     """``out = exp(j phase)`` (1-D) as ``numpy.exp(1j * phase)`` gives it: libm's ``cos`` and ``sin``, the values
     numpy's complex ``exp`` of an imaginary argument returns (``tests/test_surrogate.py``: bit for bit),
-    without its complex temporary; a calibration propagates a few hundred screens (issue 14)."""
+    without its complex temporary; a calibration propagates a few hundred screens."""
     for i in range(phase.size):
         x = phase[i] + 0.0  # the imaginary part of numpy's 1j * phase: -0.0 becomes +0.0, every other value stays
         out[i] = complex(math.cos(x), math.sin(x))

@@ -2,8 +2,7 @@
 
 Why: on the virtual machines this pipeline runs on, the first touch of fresh
 memory is what a job pays for most (page faults, huge pages zeroed by the
-guest and backed again by the host: 1-10 s per GB, measured in
-``docs/performance.md``, thirteenth round).  An expression such as
+guest and backed again by the host: 1-10 s per GB, ``docs/performance.md``).  An expression such as
 ``A rho exp(j theta) + n`` over a whole (trials, epochs) array makes several
 temporaries of the array's size; done over blocks of rows whose arrays fit
 :data:`CHUNK_BYTES`, its temporaries stay small and are reused block after

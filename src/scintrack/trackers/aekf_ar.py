@@ -21,10 +21,9 @@ A "not estimable" S4 (NaN, :func:`.blocks.s4_corrected`: signal power
 unresolved or S4 >= 2) is recorded as NaN in ``s4_hat`` but never chooses a
 set: the nearest set is that of the last estimable S4 of the trial (the
 initial set's S4 until the first; a lane-wise select,
-:func:`.simd.select_less`).  Where every estimate is estimable the results
-are bit for bit those of the former kernel (checked on 77 runs at 10-50
-dB-Hz); before, a non-resolvable signal gave S4 up to ~1e12 (the 1e-12
-floor of the signal power), which chose the largest-S4 set.
+:func:`.simd.select_less`): without it a non-resolvable signal would give
+S4 up to ~1e12 (the 1e-12 floor of the signal power) and choose the
+largest-S4 set.
 Non-adaptive use: a single parameter set (``design``, :mod:`.design`).
 
 Not in the paper (an isolating option, off by default): ``fold_mirror``.
@@ -36,7 +35,7 @@ a negative ``rho_s,k`` after the update is mapped back: every amplitude lag
 changes sign, every theta_s lag gains pi, and ``P -> J P J`` with ``J`` the
 matching sign matrix.  The I/Q prediction is unchanged by the fold.
 
-Receiver fixes (options, off by default; not in the paper; issue 13 ablation):
+Receiver fixes (options, off by default; not in the paper; an ablation study):
 
 * ``noise_estimate: reference``: the noise power of the on-line S4 correction
   (Sec. V-B) comes from a correlator that carries no signal (a far code
@@ -56,34 +55,26 @@ The kernel (:func:`aekf_kernel`) is made of :mod:`.blocks` (structured
 predict, M2M4, closed-form I/Q update, fold, sliding S4, nearest point) and
 runs ``blocks.LANES`` (32) trials side by side: every state array carries the
 trial on its last axis and each matrix entry of the 32 trials is one SIMD
-vector (``simd.Lanes``).  The predict uses the structure of F (the lag shifts
+vector (``Lanes``).  The predict uses the structure of F (the lag shifts
 of the companion blocks are copies; only rows 0, 1, 3, ir of F P and columns
-0-3, ir of (F P) F^T take arithmetic; :func:`.blocks.ar_predict`).  Results
-are bit-identical to the one-trial-at-a-time kernel this replaced (checked on
-84 configurations -- every configured ``aekf_ar`` tracker, adaptive on/off,
-``fold_mirror``, ``amplitude_floor``, ``noise_estimate: reference``, record
-on/off, states [1..3, 1..3], static, 10 ms and 1 ms, 60-500 trials x 6000
-epochs -- by sha256 of every output): per lane, every floating-point operation
-is the one of the scalar filter, in the same order, never fused or reassociated
-(no fast-math); ``P`` is still computed in full (both triangles: the scalar
-filter's P is symmetric only up to rounding, so its upper triangle alone would
-not give the same bits).  The only difference is the sign of exact zeros inside
-P, which no later operation can see, and, if P ever held an inf, an exact-zero
-AR coefficient times it (NaN) where the old predict skipped the term.  A batch
-is processed in blocks of 32 trials: a last block with fewer trials computes
+0-3, ir of (F P) F^T take arithmetic; :func:`.blocks.ar_predict`); ``P`` is
+computed in full (both triangles), as the reference does.  No operation is
+fused or reassociated (no fast-math) and no lane reads another, so a trial's
+result does not depend on its batch; a last block with fewer trials computes
 copies of its last trial (discarded), so a block costs the same for 1 or 32
-trials (measured: 20 M filter-epochs/s at 32 trials, 0.7 M/s for a single trial,
-where the one-trial kernel ran 2.7 M/s; break-even at ~4 trials).
+trials.  Tests (``tests/test_lane_kernels.py``): the kernel against
+:meth:`AEKFAR.reference` (adaptive, ``fold_mirror``, ``amplitude_floor``,
+``noise_estimate: reference``, other state orders, static), the same bits in
+batches of 1, 31, 32, 33 and 40 trials, NaN and inf prompts.
 
 Divergence guard: every :data:`COV_CHECK_EVERY` (16) epochs, from epoch 0,
 the kernel tests the (theta_d, f_d) block of every lane's updated P with
 :func:`.blocks.covariance_ok` (read-only) and records the first failing
 checked epoch per trial, ``extras["cov_fail_epoch"]`` (-1 none; always
 returned; the reference checks on the same schedule).  Checked at every
-epoch it cost 6-9 % of the kernel's rate (16.5 -> 15.2 M filter-epochs/s
-CPU, 256 trials x 5000 epochs, adaptive, loaded machine); every 16 epochs it
-is within the noise.  The flag can so lag the first failure by up to 15
-epochs; a failure that makes the state non-finite is caught at its exact
+epoch the test costs 6-9 % of the kernel's rate (256 trials x 5000 epochs,
+adaptive); every 16 epochs it is within the noise.  The flag can so lag the
+first failure by up to 15 epochs; a failure that makes the state non-finite is caught at its exact
 epoch by the guard's non-finite test anyway (:mod:`scintrack.experiments.guards`).
 
 :meth:`AEKFAR.reference` is the textbook EKF with the 2 x n Jacobian of
@@ -92,7 +83,7 @@ eq. (14) built explicitly and S inverted by ``numpy.linalg``.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -104,11 +95,13 @@ from ..estimators.s4 import StreamingS4
 from ..estimators.window import SlidingSums
 from ..models.ar import ScintillationAR
 from ..models.lut import scintillation_ar
+from ..simd.lanes import lane_load, lane_store
 from . import blocks
 from .base import (
     DESIGN_SCHEMA,
     PHASE_ORDER_SCHEMA,
     Q_JERK_SCHEMA,
+    Tracker,
     TrackerContext,
     TrackInit,
     TrackOutput,
@@ -119,7 +112,6 @@ from .base import (
     spec_p0,
     spec_q_jerk,
 )
-from .blocks import lane_load, lane_store
 from .design import compose, design_ar, explicit_design_s4, q_qualifier
 from .registry import register
 
@@ -157,9 +149,9 @@ class AekfParams(NamedTuple):
 def aekf_kernel(y, prm):
     """The AEKF-AR, ``blocks.LANES`` trials at a time (trial on the last axis: SIMD over trials).
 
-    Per lane, the operations and their order are those of the one-trial filter
-    (predict, M2M4, I/Q update, fold, floor, symmetrisation, S4 switch), so every
-    trial's result is the one it would have alone, bit for bit.  Ring buffers
+    Per epoch and lane: predict, M2M4, I/Q update, fold, floor, symmetrisation,
+    S4 switch; no lane reads another, so every trial's result is the one it has
+    alone, bit for bit.  Ring buffers
     are (window, LANES) with a position and count common to the lanes (every
     lane pushes once per epoch).
     """
@@ -319,7 +311,7 @@ def aekf_kernel(y, prm):
 
 @register("aekf_ar")
 @dataclass
-class AEKFAR:
+class AEKFAR(Tracker):
     ts: float
     q_jerk: float
     p0_diag: tuple[float, float, float]
@@ -341,6 +333,7 @@ class AEKFAR:
     amplitude_floor: float = 0.0
     record: tuple[str, ...] = field(default_factory=tuple)
 
+    PROVIDES = frozenset({*RECORDABLE, "cov_fail_epoch"})
     SPEC_OVERRIDES = {"q_jerk_hz2_s3": "q_jerk_hz2_s3"}
     TRACKING_KEYS = ("adapt_hold", "adaptation_points", "amplitude", "cn0_dbhz", "noise_window", "p0_diag", "q_jerk_hz2_s3", "rho_p0", "s4_min_epochs", "s4_window", "theta_s_p0")
     SCHEMA = {
@@ -428,6 +421,17 @@ class AEKFAR:
         from .design import design_point
 
         return None if self.adaptive else design_point(self.ar_sets[0])
+
+    @property
+    def needs_noise_reference(self) -> bool:
+        return self.noise_estimate == "reference"
+
+    def request(self, wanted: Collection[str] = ()) -> frozenset[str]:
+        """Record from now on the state estimates of ``wanted`` (``s4_hat`` and ``ar_set``: adaptive only);
+        ``cov_fail_epoch`` is always given."""
+        have = RECORDABLE if self.adaptive else ("theta_s", "rho_s")
+        self.record = tuple(name for name in wanted if name in have)
+        return frozenset({*self.record, "cov_fail_epoch"})
 
     def tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """F, Q and kappa vectors of every AR set, stacked on a first axis."""

@@ -8,7 +8,10 @@ compiled kernel; ``reference`` (same signature) is the textbook numpy form of
 the same filter, one trial-vectorised time loop, used by the tests and the
 benchmark.  A tracker type is registered in :mod:`.registry` and built from its
 config entry by its ``from_spec(spec, context)``; :class:`TrackerContext` is
-everything a spec may refer to besides its own keys.
+everything a spec may refer to besides its own keys.  What a tracker gives
+besides ``theta_d`` (scintillation estimates, on-line S4, discriminator, ...)
+it declares in ``PROVIDES`` and :meth:`Tracker.request`, with the names of
+:data:`OUTPUT_NAMES`; the experiments read that declaration.
 
 Dynamics model (eq. 8 with m = 3): state ``[theta_d (rad), f_d (Hz), f_r (Hz/s)]``,
 ``F_d = [[1, 2 pi T, pi T^2], [0, 1, T], [0, 0, 1]]``; process noise from a
@@ -18,9 +21,9 @@ white Doppler-jerk of PSD ``q`` (Hz^2/s^3):
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -61,11 +64,84 @@ class TrackOutput:
     extras: dict[str, np.ndarray] = field(default_factory=dict)
 
 
+#: The optional outputs of a tracker (keys of ``TrackOutput.extras``), shaped (trials, epochs) unless said.
+OUTPUT_NAMES = {
+    "total_phase": "estimate of the total carrier phase theta_d + theta_s (AR phase states: H x) [rad]",
+    "theta_s": "estimate of the scintillation phase [rad]",
+    "rho_s": "estimate of the scintillation amplitude",
+    "s4_hat": "on-line S4 estimate (NaN: not estimable in its window)",
+    "ar_set": "index of the AR parameter set in use",
+    "discriminator": "discriminator output the loop used [rad]",
+    "frequency_hz": "carrier Doppler estimate [Hz]",
+    "R": "measurement-noise variance of the phase update [rad2]",
+    "phi3": "sigma_phi over the last 3 s (SAKF monitor) [rad]",
+    "T": "power-law strength of the scintillation phase at 1 Hz (SAKF monitor) [rad2/Hz]",
+    "p": "power-law slope of the scintillation phase (SAKF monitor)",
+    "weight": "gain weight of eq. (12) of Susi et al. 2014 (SAKF monitor)",
+    "amplitude": "estimate of the signal amplitude [prompt units]",
+    "p_plus": "posterior probability of the data level d = +1",
+    "log_odds": "log-odds of d = +1 against d = -1",
+    "cn0_dbhz": "C/N0 estimate [dB-Hz]",
+    "cov_fail_epoch": "(trials,): first epoch whose covariance failed its check (-1: none)",
+}
+
+
 @runtime_checkable
 class Tracker(Protocol):
-    """A carrier tracker: complex prompts (trials, epochs) in, theta_d estimates out."""
+    """A carrier tracker type: complex prompts (trials, epochs) in, theta_d estimates out.
 
-    def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput: ...
+    A tracker class subclasses this protocol, defines the class attributes
+    ``SCHEMA``, ``TRACKING_KEYS`` and ``PROVIDES`` and the methods
+    ``from_spec``, ``label``, ``run`` and ``reference``; it inherits
+    ``design_point``, ``needs_noise_reference`` and :meth:`request` as defaults
+    and overrides them where it differs.
+    """
+
+    #: JSON-Schema ``properties`` of the type's spec keys (:mod:`.registry` adds ``type`` and ``label``)
+    SCHEMA: ClassVar[Mapping[str, Any]]
+    #: the keys of the shared ``tracking:`` settings ``from_spec`` reads, and no others: an experiment is
+    #: handed only these (:mod:`scintrack.pipeline.params`), so changing another key does not rerun it
+    TRACKING_KEYS: ClassVar[tuple[str, ...]]
+    #: every optional output ``run`` can give (names of :data:`OUTPUT_NAMES`)
+    PROVIDES: ClassVar[frozenset[str]]
+
+    #: (S4, tau0) of the AR look-up-table point a fixed design was built with; None: adaptive or no scintillation model
+    design_point: tuple[float, float] | None = None
+    #: ``run`` reads ``TrackInit.noise_reference`` (samples of a signal-free correlator)
+    needs_noise_reference: bool = False
+
+    @classmethod
+    def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> Tracker:
+        """The tracker of the config entry ``spec`` (``config["trackers"][name]``).
+
+        Values the spec does not set come from ``context`` (only the ``tracking``
+        keys of ``TRACKING_KEYS``).  Raises ValueError for a spec it cannot build.
+        """
+        ...
+
+    @staticmethod
+    def label(name: str, spec: Mapping[str, Any]) -> str:
+        """Plain-text name of a tracker of ``spec`` in figures and tables (a spec's ``label`` key overrides it)."""
+        ...
+
+    def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
+        """The compiled filter: ``theta_d`` (trials, epochs) and the optional outputs of :meth:`request`.
+
+        Trials are independent: a trial's outputs do not depend on the others in the batch.
+        """
+        ...
+
+    def reference(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
+        """The textbook numpy form of the same filter (the test oracle of :meth:`run`), the same outputs."""
+        ...
+
+    def request(self, wanted: Collection[str]) -> frozenset[str]:
+        """Ask ``run`` for the optional outputs ``wanted``; returns the optional outputs ``run`` gives from now on.
+
+        A tracker records an output that costs memory only when it is asked for
+        (the AEKF-AR's state estimates); the default gives every output of ``PROVIDES``.
+        """
+        return self.PROVIDES
 
 
 @dataclass(frozen=True)
@@ -74,7 +150,8 @@ class TrackerContext:
 
     * ``scenario``: the scenario mapping (``design: scenario`` reads its first
       segment; ``cn0_dbhz`` overrides the nominal C/N0);
-    * ``tracking``: the shared ``config["tracking"]`` section (Q, P0, windows, ...);
+    * ``tracking``: the shared ``tracking:`` settings the job was given (Q, P0, windows, ...;
+      :meth:`scintrack.settings.TrackingSettings.given`);
     * ``lut``: the AR look-up table (``xarray.Dataset``) or None;
     * ``ts``: the correlator period [s];
     * ``trace_set``: the AR models fitted on a trace
@@ -83,8 +160,8 @@ class TrackerContext:
 
     scenario: Mapping[str, Any]
     tracking: Mapping[str, Any]
+    ts: float
     lut: Any = None
-    ts: float = 0.01
     trace_set: Any = None
 
     @property

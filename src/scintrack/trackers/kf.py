@@ -17,38 +17,27 @@ innovation is the discriminator output itself.  The kernel
 (:func:`kf_kernel`) is made of :mod:`.blocks` (predict, ATAN2, M2M4, eq. 12,
 scalar update); :meth:`DiscriminatorKF.reference` is the textbook matrix form.
 
-Lanes: :func:`kf_kernel` runs ``blocks.LANES`` (32) trials side by side, as the
-AEKF-AR kernel does (:mod:`.aekf_ar`): every state array carries the trial on
-its last axis and each matrix entry of the 32 trials is one SIMD vector
-(``simd.Lanes``); the blocks are the lane forms of the one-trial ones
-(:func:`.blocks.sparse_predict_lanes` over the non-zeros of F,
-:func:`.blocks.scalar_update_lanes`, :func:`.blocks.m2m4_lanes` on
-:func:`.blocks.window_push_lanes`), the discriminator is one SIMD evaluation of
-:mod:`.trig`'s sine, cosine and atan2 (:func:`.blocks.atan2_discriminator_lanes`;
-libm's, per lane, until the twenty-second round of issue 14), and exp and erf
-of eq. (12) are libm calls per lane.  Results are bit-identical to the one-trial-at-a-time kernel this replaced,
-kept as :func:`kf_kernel_scalar` (``tests/test_kf_lanes.py``: every output,
-as uint64, for kf, akf and akf_ar with AR orders 1-3, a non-PSD P0, 10 ms and
-1 ms, batches of 1, 5, 31, 32, 33 and 100 trials, a NaN and an inf prompt):
-per lane every floating-point operation is the scalar filter's, in the same
-order and with the same operands (the zero entries of H and the unit entries
-of F included), never fused or reassociated (no fast-math).  A last block with
-fewer trials computes copies of its last trial (discarded), so a block costs
-the same for 1 or 32 trials; "bit-identical" treats all NaNs as one (the sign
-of a NaN met by another is unspecified, ``tests/test_kf_lanes.py::_bits_equal``).  Measured (CPU time, best of 5, 256 trials x 2000
-epochs at 10 ms, machine loaded ~3 on 2 cores): KF 5.0 -> 18.7, AKF
-4.1 -> 13.5, AKF-AR (p = 2) 3.3 -> 11.5 M filter-epochs/s; the remaining time
-was mostly the per-lane libm calls (with :mod:`.trig`, 18.4 -> 41.9 M/s for
-the KF in ``benchmarks/run.py``, twenty-second round).  Same load, 3000 epochs, CPU time: 20,
-25, 50 and 100 trials ran 2.2-3.5x faster than before; break-even at ~8
-trials, below it slower (1 trial: 0.5-0.8 against 3-5 M/s).
+Lanes: :func:`kf_kernel` runs ``blocks.LANES`` (32) trials side by side: every
+state array carries the trial on its last axis and each matrix entry of the
+32 trials is one SIMD vector (``Lanes``), so the core works on 32 independent
+filters instead of waiting on one filter's chain of dependent operations.  The
+blocks are :func:`.blocks.sparse_predict_lanes` (over the non-zeros of F),
+:func:`.blocks.scalar_update_lanes`, :func:`.blocks.m2m4_lanes`, and the
+discriminator is one SIMD evaluation of :mod:`.trig`'s sine, cosine and atan2
+(:func:`.blocks.atan2_discriminator_lanes`); exp and erf of eq. (12) are libm
+calls per lane.  Per lane no operation is fused or reassociated (no
+fast-math) and no lane reads another, so a trial's result does not depend on
+the batch it runs in; a last block with fewer trials computes copies of its
+last trial (discarded).  Tests (``tests/test_lane_kernels.py``): the kernel
+against :meth:`DiscriminatorKF.reference` within a stated tolerance, the same
+bits in batches of 1, 31, 32, 33 and 40 trials, NaN and inf prompts.
 
 Config: ``{type: kf|akf, q_jerk_hz2_s3: ..}``, ``{type: akf_ar, design: .., phase_order: ..}``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -56,11 +45,13 @@ import numpy as np
 from numba import njit
 
 from ..estimators.cn0 import M2M4_FLOOR, M2M4_MIN_EPOCHS, StreamingM2M4, cn0_from_powers
+from ..simd.lanes import lane_load, lane_splat, lane_store
 from . import blocks
 from .base import (
     DESIGN_SCHEMA,
     PHASE_ORDER_SCHEMA,
     Q_JERK_SCHEMA,
+    Tracker,
     TrackerContext,
     TrackInit,
     TrackOutput,
@@ -73,7 +64,6 @@ from .base import (
     spec_p0,
     spec_q_jerk,
 )
-from .blocks import lane_load, lane_splat, lane_store
 from .design import compose, design_ar, design_point, explicit_design_s4, q_qualifier
 from .registry import register
 
@@ -103,10 +93,9 @@ class KfParams(NamedTuple):
 def kf_kernel(y, prm):
     """The discriminator KF, ``blocks.LANES`` trials at a time (trial on the last axis: SIMD over trials).
 
-    Per lane, the operations and their order are those of the one-trial filter
-    (:func:`kf_kernel_scalar`: predict, ATAN2 on ``H x``, M2M4 and eq. (12),
-    scalar update, covariance test), so every trial's result is the one it
-    would have alone, bit for bit.  The M2M4 ring buffers are (window, LANES)
+    Per epoch and lane: predict, ATAN2 on ``H x``, M2M4 and eq. (12), scalar
+    update, covariance test; no lane reads another, so every trial's result is
+    the one it has alone, bit for bit.  The M2M4 ring buffers are (window, LANES)
     with a position and count common to the lanes (every lane pushes once per
     epoch).  A short last block computes copies of its last trial (not written).
     """
@@ -182,63 +171,8 @@ def kf_kernel(y, prm):
     return out, r_out, tot, cov_fail
 
 
-@njit(cache=True)
-def kf_kernel_scalar(y, prm):
-    """The former one-trial-at-a-time kernel (the bits :func:`kf_kernel` reproduces; ``tests/test_kf_lanes.py``)."""
-    n_tr, k = y.shape
-    n = prm.Q.shape[0]
-    rows, cols, vals, nnz = prm.nz_rows[0], prm.nz_cols[0], prm.nz_vals[0], prm.nz_count[0]
-    kap = np.zeros(n)
-    out = np.empty((n_tr, k))
-    r_out = np.empty((n_tr, k)) if prm.adaptive else np.empty((0, 0))
-    tot = np.empty((n_tr, k)) if n > 3 else np.empty((0, 0))
-    cov_fail = np.full(n_tr, -1, dtype=np.int64)
-    buf2 = np.zeros(prm.window)
-    buf4 = np.zeros(prm.window)
-    x = np.empty(n)
-    xp = np.empty(n)
-    P = np.empty((n, n))
-    FP = np.empty((n, n))
-    PH = np.empty(n)
-    for t in range(n_tr):
-        x[:] = prm.x0[t]
-        P[:, :] = prm.P0
-        buf2[:] = 0.0
-        buf4[:] = 0.0
-        s2 = 0.0
-        s4 = 0.0
-        count = 0
-        pos = 0
-        for i in range(k):
-            if i > 0:
-                blocks.predict(x, P, xp, FP, prm.Q, kap, rows, cols, vals, nnz, False)
-            phase = 0.0
-            for a in range(n):
-                phase += prm.H[a] * x[a]
-            yr, yi = y[t, i].real, y[t, i].imag
-            nu = blocks.atan2_discriminator(yr, yi, phase)
-            if prm.adaptive:
-                p2 = yr * yr + yi * yi
-                pos, s2, s4, count = blocks.window_push(buf2, buf4, pos, s2, s4, count, p2, p2 * p2)
-                if count < prm.min_epochs:
-                    sig, noi = prm.prior_signal, prm.prior_noise
-                else:
-                    sig, noi = blocks.m2m4_split(s2 / count, s4 / count, prm.floor_fraction)
-                R = blocks.atan_variance(blocks.cn0_from_powers(sig, noi, prm.ts), prm.ts)
-                r_out[t, i] = R
-            else:
-                R = prm.r_fixed
-            blocks.scalar_update(x, P, PH, prm.H, R, nu)
-            if cov_fail[t] < 0 and not blocks.covariance_ok(P[0, 0], P[1, 1], P[0, 1]):
-                cov_fail[t] = i
-            out[t, i] = x[0]
-            if n > 3:
-                tot[t, i] = x[0] + x[3]
-    return out, r_out, tot, cov_fail
-
-
 @dataclass
-class DiscriminatorKF:
+class DiscriminatorKF(Tracker):
     ts: float
     q_jerk: float
     nominal_cn0_hz: float
@@ -249,6 +183,8 @@ class DiscriminatorKF:
     ar_sigma2: float = 0.0
     ar_p0: float = 0.01
     amplitude: float = 1.0
+
+    PROVIDES = frozenset({"R", "total_phase", "cov_fail_epoch"})
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """F, Q and H (row) of the filter."""
@@ -292,6 +228,10 @@ class DiscriminatorKF:
         """Compiled loop (:func:`kf_kernel`)."""
         out, r_out, tot, cov_fail = kf_kernel(np.ascontiguousarray(y, dtype=complex), self.params(init))
         return TrackOutput(theta_d=out, extras=self._extras(r_out, tot, cov_fail))
+
+    def request(self, wanted: Collection[str] = ()) -> frozenset[str]:
+        """The outputs of :meth:`_extras`, whatever is wanted."""
+        return frozenset({"cov_fail_epoch"} | ({"R"} if self.adaptive_r else set()) | ({"total_phase"} if self.ar_coefs is not None else set()))
 
     def _extras(self, r_out: np.ndarray, total: np.ndarray, cov_fail: np.ndarray) -> dict[str, np.ndarray]:
         """``R`` (adaptive), with AR states ``total_phase`` = theta_d + theta_s estimate (``H x``), and

@@ -82,19 +82,18 @@ Choices the paper leaves open, and why:
   epoch whose (phase, frequency) covariance fails :func:`.blocks.covariance_ok`
   (-1 none; the amplitude variance may legitimately reach 0 with ``amplitude_q = 0``).
 
-Lanes: :func:`mm_kf_loop` runs ``blocks.LANES`` (32) trials side by side, as
-the other Kalman kernels do (:mod:`.kf`, :mod:`.aekf_ar`), with per lane the
-operations of the one-trial loop kept as :func:`mm_kf_loop_scalar`; results are
-the same bits (``tests/test_kf_lanes.py``: every output and the kept
-covariance, batches of 1-100 trials, pilot, unknown and mixed priors, both R
-forms, from epoch 0 and resumed).  Where one mode is impossible (a pilot, or a
+Lanes: :func:`mm_kf_loop` runs ``blocks.LANES`` (32) trials side by side, one
+SIMD vector per state entry (:func:`two_mode_iq_update_lanes`): the filter's
+epochs form one chain of dependent divisions, exponentials and products, and
+32 independent trials fill the core's latencies.  No operation is fused or
+reassociated (no fast-math) and no lane reads another, so a trial's result
+does not depend on its batch.  Where one mode is impossible (a pilot, or a
 bit known to be +1 or -1) the mode weights are their exact values, 1 and 0,
-without the log-sum-exp's exponentials.  Measured (wall, best of 3, one
-process, 10 ms): unknown bits 500 x 5000 trials x epochs, covariance kept,
-3.09 (one trial at a time) -> 5.87 M filter-epochs/s; 64 x 20000 pilot 3.90 -> 10.3, known bits
-3.79 -> 9.05, one third known 3.53 -> 7.64 (issue 14).  :meth:`MMKF.resume`
-restarts trials from the first changed bit prior (the IODE-check receiver's
-fixed-point iterations).
+without the log-sum-exp's exponentials.  Tests
+(``tests/test_lane_kernels.py``): the loop against :meth:`MMKF.reference`,
+the same bits in batches of 1, 31, 32, 33 and 40 trials, from epoch 0 and
+resumed, NaN and inf prompts.  :meth:`MMKF.resume` restarts trials from the
+first changed bit prior (the IODE-check receiver's fixed-point iterations).
 
 Config: ``{type: mm_kf, clock: zhao_tcxo, q_form: exact, r: m2m4, m2m4_window: 100}``.
 """
@@ -111,9 +110,9 @@ from numba import njit
 
 from ..estimators.cn0 import M2M4_FLOOR, StreamingM2M4, cn0_from_powers, m2m4
 from ..models import clock as clock_models
+from ..simd.lanes import lane_load, lane_store
 from . import blocks, trig
-from .base import TrackerContext, TrackInit, TrackOutput
-from .blocks import lane_load, lane_store
+from .base import Tracker, TrackerContext, TrackInit, TrackOutput
 from .registry import register
 
 Q_FORMS = ("exact", "zhao_eq3")
@@ -150,47 +149,6 @@ def log_sum_exp2(a, b):
     return m + math.log(math.exp(a - m) + math.exp(b - m))
 
 
-@njit(cache=True)
-def two_mode_iq_update(x, P, ph0, ph1, k0, k1, dx, r, yr, yi, log_pp, log_pm):
-    """GPB1 step on z = [I, Q] for d = +-1 from one prediction; returns (mu_+, log-odds).
-
-    ``H_+ = [[c, -A s, 0], [s, A c, 0]]`` at the predicted (A, phi), ``H_- = -H_+``:
-    one S and one gain ``K`` (``K_- = -K``); ``x_+ = x + K (y - zhat)``,
-    ``x_- = x - K (y + zhat)``; mode weights in logs; moment-matched merge.
-    """
-    A = x[0]
-    s_, c_ = trig.sincos(x[1])
-    for a in range(3):
-        ph0[a] = P[a, 0] * c_ - P[a, 1] * A * s_
-        ph1[a] = P[a, 0] * s_ + P[a, 1] * A * c_
-    s00 = c_ * ph0[0] - A * s_ * ph0[1] + r
-    s01 = c_ * ph1[0] - A * s_ * ph1[1]
-    s11 = s_ * ph1[0] + A * c_ * ph1[1] + r
-    det = s00 * s11 - s01 * s01
-    i00, i01, i11 = s11 / det, -s01 / det, s00 / det
-    zr, zi = A * c_, A * s_
-    pr, pi_ = yr - zr, yi - zi  # innovation of d = +1
-    mr, mi = yr + zr, yi + zi  # minus the innovation of d = -1
-    wp = log_pp - 0.5 * (pr * (i00 * pr + i01 * pi_) + pi_ * (i01 * pr + i11 * pi_))
-    wm = log_pm - 0.5 * (mr * (i00 * mr + i01 * mi) + mi * (i01 * mr + i11 * mi))
-    lse = log_sum_exp2(wp, wm)
-    mu_p = math.exp(wp - lse)
-    mu_m = math.exp(wm - lse)
-    spread = math.exp(wp + wm - 2.0 * lse)  # mu_+ mu_-
-    for a in range(3):
-        k0[a] = ph0[a] * i00 + ph1[a] * i01
-        k1[a] = ph0[a] * i01 + ph1[a] * i11
-    for a in range(3):
-        xp_a = x[a] + k0[a] * pr + k1[a] * pi_
-        xm_a = x[a] - (k0[a] * mr + k1[a] * mi)
-        dx[a] = xp_a - xm_a
-        x[a] = mu_p * xp_a + mu_m * xm_a
-    for a in range(3):
-        for b in range(3):
-            P[a, b] += spread * dx[a] * dx[b] - (k0[a] * ph0[b] + k1[a] * ph1[b])
-    return mu_p, wp - wm
-
-
 #: the posterior covariance entries kept per epoch for :meth:`MMKF.resume` (upper triangle, row by row)
 COV_ENTRIES = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 #: the per-epoch outputs, in :func:`mm_kf_loop`'s argument order, and their keys in ``TrackOutput`` (theta: ``theta_d``)
@@ -211,94 +169,20 @@ def mm_kf_kernel(y, prm, keep_covariance=False):
 
 
 @njit(cache=True)
-def mm_kf_loop_scalar(y, prm, start, theta, freq, amp, p_plus, log_odds, cn0_db, cov, cov_fail):
-    """One trial at a time: the bits :func:`mm_kf_loop` reproduces on lanes (``tests/test_kf_lanes.py``).
-
-    The filter of trial ``t`` over epochs ``start[t] ..`` into the output arrays (trials, epochs).
-
-    ``start[t] = 0``: from ``prm.x0``, ``prm.P0``.  ``start[t] = s > 0``: from the posterior of epoch
-    ``s - 1`` already in the outputs (state ``amp, theta, freq`` and covariance ``cov``), with the M2M4
-    window replayed over epochs ``0 .. s-1`` (the same pushes, so the same sums): the rest of the trial
-    then has the bits of a run from epoch 0, the filter being causal.  ``start[t] >= epochs``: nothing.
-    ``cov`` (trials, epochs, 6) receives the posterior covariance (:data:`COV_ENTRIES`) of every epoch
-    computed, or has no epochs (not kept).  ``cov_fail[t]`` must hold the trial's value before ``start[t]``.
-    """
-    n_tr, k = y.shape
-    keep = cov.shape[1] == k
-    rows, cols, vals, nnz = prm.nz_rows[0], prm.nz_cols[0], prm.nz_vals[0], prm.nz_count[0]
-    kap = np.zeros(3)
-    buf2 = np.zeros(prm.window)
-    buf4 = np.zeros(prm.window)
-    x = np.empty(3)
-    xp = np.empty(3)
-    P = np.empty((3, 3))
-    FP = np.empty((3, 3))
-    ph0 = np.empty(3)
-    ph1 = np.empty(3)
-    k0 = np.empty(3)
-    k1 = np.empty(3)
-    dx = np.empty(3)
-    for t in range(n_tr):
-        s = start[t]
-        if s >= k:
-            continue
-        buf2[:] = 0.0
-        buf4[:] = 0.0
-        s2 = 0.0
-        s4 = 0.0
-        count = 0
-        pos = 0
-        if s == 0:
-            x[:] = prm.x0[t]
-            P[:, :] = prm.P0[t]
-        else:
-            x[0], x[1], x[2] = amp[t, s - 1], theta[t, s - 1], freq[t, s - 1]
-            for m in range(6):
-                a, b = COV_ENTRIES[m]
-                P[a, b] = cov[t, s - 1, m]
-                P[b, a] = cov[t, s - 1, m]
-            if prm.adaptive:
-                for i in range(s):
-                    yr, yi = y[t, i].real, y[t, i].imag
-                    p2 = yr * yr + yi * yi
-                    pos, s2, s4, count = blocks.window_push(buf2, buf4, pos, s2, s4, count, p2, p2 * p2)
-        for i in range(s, k):
-            if i > 0:
-                blocks.predict(x, P, xp, FP, prm.Q[t], kap, rows, cols, vals, nnz, False)
-            yr, yi = y[t, i].real, y[t, i].imag
-            if prm.adaptive:
-                p2 = yr * yr + yi * yi
-                pos, s2, s4, count = blocks.window_push(buf2, buf4, pos, s2, s4, count, p2, p2 * p2)
-                if count < prm.window:
-                    noise = prm.prior_noise[t]
-                else:
-                    noise = blocks.m2m4_split(s2 / count, s4 / count, prm.floor_fraction)[1]
-                r = 0.5 * noise
-            else:
-                r = prm.r_fixed
-            p_plus[t, i], log_odds[t, i] = two_mode_iq_update(x, P, ph0, ph1, k0, k1, dx, r, yr, yi, prm.log_pp[t, i], prm.log_pm[t, i])
-            blocks.symmetrise(P)
-            if cov_fail[t] < 0 and not blocks.covariance_ok(P[1, 1], P[2, 2], P[1, 2]):
-                cov_fail[t] = i
-            amp[t, i] = x[0]
-            theta[t, i] = x[1]
-            freq[t, i] = x[2]
-            if keep:
-                for m in range(6):
-                    cov[t, i, m] = P[COV_ENTRIES[m][0], COV_ENTRIES[m][1]]
-            cn0_db[t, i] = 10.0 * math.log10(blocks.cn0_from_powers(x[0] * x[0], 2.0 * r, prm.ts))
-
-
-@njit(cache=True)
 def two_mode_iq_update_lanes(x, P, ph0, ph1, k0, k1, dx, cs, sn, r, yr, yi, lpp, lpm, mu_p, log_odds):
-    """:func:`two_mode_iq_update` on ``blocks.LANES`` trials at once (SIMD over trials).
+    """GPB1 step on z = [I, Q] for d = +-1 from one prediction, ``blocks.LANES`` trials at once (SIMD over trials).
+
+    ``H_+ = [[c, -A s, 0], [s, A c, 0]]`` at the predicted (A, phi), ``H_- = -H_+``: one S and one gain
+    ``K`` (``K_- = -K``); ``x_+ = x + K (y - zhat)``, ``x_- = x - K (y + zhat)``; mode weights in logs
+    (:func:`log_sum_exp2`); moment-matched merge ``x = mu_+ x_+ + mu_- x_-``,
+    ``P = P - K (P H^T)^T + mu_+ mu_- (x_+ - x_-)(x_+ - x_-)^T``.
 
     ``x`` (3, LANES), ``P`` (3, 3, LANES) in place; ``r``, ``yr``, ``yi``, the log priors ``lpp``, ``lpm``
-    (LANES,); outputs ``mu_p`` and ``log_odds`` (LANES,); work arrays ``ph0``, ``ph1``, ``k0``, ``k1``,
-    ``dx`` (3, LANES) and ``cs``, ``sn`` (LANES,).  Every expression is the scalar block's, term by
-    term in its order, on lane vectors (IEEE, no contraction), :func:`.trig.sincos` on the lane vector, and the libm calls (exp, log)
-    and the log-sum-exp's branch are made per lane: each lane has the scalar block's bits.  An exact-zero
-    ``det S`` on any lane raises ZeroDivisionError, as the scalar division does.
+    (LANES,); outputs ``mu_p`` (mu_+) and ``log_odds`` (LANES,); work arrays ``ph0``, ``ph1``, ``k0``, ``k1``,
+    ``dx`` (3, LANES) and ``cs``, ``sn`` (LANES,).  IEEE arithmetic on lane vectors (no contraction),
+    :func:`.trig.sincos` on the lane vector; the libm calls (exp, log) and the log-sum-exp's branch are
+    made per lane.  An exact-zero ``det S`` on any lane raises ZeroDivisionError, as numba's scalar
+    division does.
     """
     L = blocks.LANES
     A = lane_load(x, 0)
@@ -367,12 +251,10 @@ def mm_kf_loop(y, prm, start, theta, freq, amp, p_plus, log_odds, cn0_db, cov, c
     computed, or has no epochs (not kept).  ``cov_fail[t]`` must hold the trial's value before ``start[t]``.
 
     A block runs from the earliest start of its trials; a lane whose trial starts later computes from
-    ``x0``, ``P0`` unwritten until its start, where it takes its checkpoint.  Per lane the operations
-    and their order are those of :func:`mm_kf_loop_scalar` (:func:`.blocks.sparse_predict_lanes`,
-    :func:`two_mode_iq_update_lanes`, :func:`.blocks.window_push_lanes`, M2M4 on lane vectors, libm's
-    exp and log per lane), so every trial's result is the one it has alone, bit for bit.  The filter's epochs form
-    one chain of dependent divisions, exponentials and products, so one trial at a time left the
-    core waiting on latencies; 32 independent trials fill them (issue 14).
+    ``x0``, ``P0`` unwritten until its start, where it takes its checkpoint.  Per epoch and lane:
+    :func:`.blocks.sparse_predict_lanes`, :func:`.blocks.window_push_lanes` and the M2M4 noise power,
+    :func:`two_mode_iq_update_lanes`, symmetrisation, covariance test; no lane reads another, so every
+    trial's result is the one it has alone, bit for bit.
     """
     L = blocks.LANES
     n_tr, k = y.shape
@@ -492,7 +374,7 @@ def bit_log_priors(bit_prior, n_tr: int, k: int) -> tuple[np.ndarray, np.ndarray
 
 @register("mm_kf")
 @dataclass
-class MMKF:
+class MMKF(Tracker):
     """Two-mode (d = +-1) multiple-model EKF on [A, phi, f] (module docstring)."""
 
     ts: float
@@ -506,6 +388,8 @@ class MMKF:
     amplitude0: float | None = None
 
     TRACKING_KEYS = ()
+    #: the per-epoch outputs of :data:`OUTPUTS` and ``cov_fail_epoch`` (``covariance`` only from ``run(..., keep_covariance=True)``)
+    PROVIDES = frozenset({*OUTPUTS.values(), "cov_fail_epoch"} - {"theta_d"})
     SCHEMA = {
         "clock": {"enum": sorted(clock_models.PRESETS), "description": "oscillator preset of scintrack.models.clock (default zhao_tcxo)"},
         "q_form": {"enum": list(Q_FORMS), "description": "clock process noise: exact two-state Q (default) or Zhao eq. (3) as written"},
@@ -623,7 +507,7 @@ class MMKF:
         causal and a trial's arithmetic does not depend on the other trials, so the result has the bits of
         ``run(y, init, keep_covariance=True)`` (``tests/test_mm_kf.py``); the fixed-point iterations of the
         IODE-check receiver (:func:`scintrack.experiments.gps_receiver.run_mm`) change the priors of a
-        trial from some frame on, so most of each iteration is a copy (issue 14).
+        trial from some frame on, so most of each iteration is a copy.
         """
         y = self._prompts(y)
         n_tr, k = y.shape

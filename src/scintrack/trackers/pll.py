@@ -21,22 +21,15 @@ is then ambiguous by pi); the default ``atan2`` is the Vila-Valls pilot loop.
 ``extras["discriminator"]`` the discriminator output ``e_k`` (recomputed from
 the prompts and the NCO phases, the same numbers the loop used).
 
-Lanes: :func:`pll_kernel` runs ``blocks.LANES`` (32) trials side by side, as the
-AEKF-AR kernel does (:mod:`.aekf_ar`): the discriminator (:mod:`.trig`'s sine,
-cosine and atan2 / atan, :func:`.blocks.atan2_discriminator_lanes`) and
-:func:`.blocks.pll_step` on one SIMD vector per quantity.  Results are
-bit-identical to the one-trial-at-a-time kernel this replaced, kept as
-:func:`pll_kernel_scalar` (``tests/test_kf_lanes.py``: phase, frequency and
-discriminator, as uint64, atan2 and atan, 10 ms and 1 ms, batches of 1, 5, 31,
-32, 33 and 100 trials with a NaN and an inf prompt): per lane the same
-floating-point operations in the same order, no fast-math.  A last block with
-fewer trials computes copies of its last trial (discarded).  Measured (CPU
-time, best of 5, 256 trials x 2000 epochs at 10 ms, machine loaded ~3-4 on 2
-cores): 15.1 -> 23.6 M filter-epochs/s, then nearly all libm (cos, sin, atan2
-per lane); with :mod:`.trig` instead of libm 22.4 -> 69.4 M/s (``benchmarks/run.py``,
-batch 500; issue 14, twenty-second round).  A block costs the same for 1 or 32 trials: at 20, 25, 50 and 100
-trials x 3000 epochs 14.9-15.1 -> 16.5-19.2 M/s; break-even at ~18 trials,
-below it slower (1 trial: 0.9 against 15.8 M/s).
+Lanes: :func:`pll_kernel` runs ``blocks.LANES`` (32) trials side by side, one
+SIMD vector per quantity: the discriminator (:mod:`.trig`'s sine, cosine and
+atan2 / atan, :func:`.blocks.prompt_discriminator_lanes`) and
+:func:`.blocks.pll_step` on ``Lanes``.  No operation is fused or reassociated
+(no fast-math) and no lane reads another, so a trial's result does not depend
+on its batch; a last block with fewer trials computes copies of its last
+trial (discarded).  Tests (``tests/test_lane_kernels.py``): the kernel against
+:meth:`PLL.reference`, the same bits in batches of 1, 31, 32, 33 and 40
+trials, NaN and inf prompts.
 """
 
 from __future__ import annotations
@@ -48,9 +41,9 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
+from ..simd.lanes import lane_load, lane_store
 from . import blocks
-from .base import TrackerContext, TrackInit, TrackOutput, atan2_discriminator
-from .blocks import lane_load, lane_store
+from .base import Tracker, TrackerContext, TrackInit, TrackOutput, atan2_discriminator
 from .registry import register
 
 
@@ -69,9 +62,8 @@ class PllParams(NamedTuple):
 def pll_kernel(y, prm):
     """The PLL, ``blocks.LANES`` trials at a time (trial on the last axis: SIMD over trials).
 
-    Per lane the operations of the one-trial loop (:func:`pll_kernel_scalar`):
-    the discriminator on Lanes (:mod:`.trig`), :func:`.blocks.pll_step` on Lanes, so every
-    trial's result is the one it has alone, bit for bit.  A short last block
+    Per epoch: the discriminator on Lanes (:mod:`.trig`), :func:`.blocks.pll_step` on Lanes; no lane
+    reads another, so every trial's result is the one it has alone, bit for bit.  A short last block
     computes copies of its last trial (not written).
     """
     L = blocks.LANES
@@ -106,36 +98,15 @@ def pll_kernel(y, prm):
     return out, freq, disc
 
 
-@njit(cache=True)
-def pll_kernel_scalar(y, prm):
-    """The former one-trial-at-a-time kernel (the bits :func:`pll_kernel` reproduces; ``tests/test_kf_lanes.py``)."""
-    n, k = y.shape
-    k3, k2, k1 = blocks.pll_constants(prm.bandwidth_hz, prm.ts)
-    out = np.empty((n, k))
-    freq = np.empty((n, k))
-    disc = np.empty((n, k))
-    for t in range(n):
-        phase, v, w = prm.phase0[t], prm.v0[t], prm.w0[t]
-        for i in range(k):
-            out[t, i] = phase
-            freq[t, i] = v / (2.0 * np.pi)
-            if prm.costas:
-                e = blocks.atan_discriminator(y[t, i].real, y[t, i].imag, phase)
-            else:
-                e = blocks.atan2_discriminator(y[t, i].real, y[t, i].imag, phase)
-            disc[t, i] = e
-            phase, v, w = blocks.pll_step(phase, v, w, e, k3, k2, k1, prm.ts)
-    return out, freq, disc
-
-
 @register("pll")
 @dataclass
-class PLL:
+class PLL(Tracker):
     ts: float
     bandwidth_hz: float
     discriminator: str = "atan2"
 
     TRACKING_KEYS = ("pll_bandwidth_hz",)
+    PROVIDES = frozenset({"frequency_hz", "discriminator"})
     SPEC_OVERRIDES = {"bandwidth_hz": "pll_bandwidth_hz"}
     SCHEMA = {
         "bandwidth_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 50, "description": "loop noise bandwidth Bn [Hz] (default: tracking.pll_bandwidth_hz)"},

@@ -9,6 +9,9 @@ A tracker type is one module.  Its class registers itself with the
   and tables (a ``label:`` key in the spec overrides it, see :func:`label`);
 * ``SCHEMA``: a JSON-Schema ``properties`` dict of its spec keys (``type`` and
   ``label`` are added here);
+* ``PROVIDES``: the optional outputs its ``run`` can give, and ``request``,
+  ``design_point``, ``needs_noise_reference`` (the :class:`~.base.Tracker`
+  protocol, which a tracker class subclasses, has their defaults);
 * ``TRACKING_KEYS``: the keys of the shared ``config["tracking"]`` section its
   ``from_spec`` reads.  The workflow hands an experiment only the tracking
   values its trackers read (:mod:`scintrack.pipeline.params`), so a change of
@@ -56,8 +59,8 @@ def register(name: str) -> Callable[[type], type]:
     """Class decorator: make ``cls`` the tracker type ``name`` (``type: name`` in the config)."""
 
     def deco(cls: type) -> type:
-        for attr in ("from_spec", "label", "SCHEMA", "TRACKING_KEYS"):
-            if not hasattr(cls, attr):
+        for attr in ("from_spec", "label", "run", "SCHEMA", "TRACKING_KEYS", "PROVIDES"):
+            if not _defines(cls, attr):
                 raise TypeError(f"tracker type {name!r}: {cls.__name__} has no {attr}")
         old = _TYPES.get(name)
         if old is not None and old.cls.__qualname__ != cls.__qualname__:
@@ -68,6 +71,16 @@ def register(name: str) -> Callable[[type], type]:
         return cls
 
     return deco
+
+
+def _defines(cls: type, attr: str) -> bool:
+    """``cls`` or a base below the :class:`~.base.Tracker` protocol defines ``attr`` (the protocol's stubs do not count)."""
+    for klass in cls.__mro__:
+        if klass is Tracker:
+            return False
+        if attr in vars(klass):
+            return True
+    return False
 
 
 def _load() -> None:
@@ -160,12 +173,12 @@ def _where(name: str, path) -> str:
 def validate_specs(trackers: Mapping[str, Any], source: str = "config/config.yaml") -> None:
     """Check every tracker spec against its type's schema fragment.
 
-    Raises :class:`scintrack.config.ConfigError` with one line naming the key,
+    Raises :class:`scintrack.errors.ConfigError` with one line naming the key,
     the rule it breaks and where to fix it.
     """
     import jsonschema
 
-    from ..config import ConfigError
+    from ..errors import ConfigError
 
     fix = f"fix it in {source} or your --configfile/--config overlay"
     for name, spec in trackers.items():

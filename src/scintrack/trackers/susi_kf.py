@@ -33,7 +33,7 @@ types (the SAKF is the AKF plus the scintillation blocks):
   nor K(Phi3): this monotone form, falling with Phi3 for gamma > 0, is our
   choice; ``alpha = 1, gamma = 0`` is no weighting).  The covariance of the
   weighted filter is propagated in Joseph form
-  (:func:`.blocks.weighted_scalar_update`).
+  (:func:`.blocks.weighted_scalar_update_lanes`).
 
 Modelling choices (``docs/modelling-choices.md``, Susi section): the window is
 detrended by a least-squares quadratic (which removes the third-order
@@ -46,34 +46,26 @@ window the scintillation PSDs are 0 and ``w = alpha``.  The recorded monitors
 period, and :meth:`SusiKF.run` returns them as
 :class:`~.held_series.HeldSeries` (one value per trial and period; read as
 arrays they are the per-epoch series, the same bits), not as (trials, epochs)
-arrays written epoch by epoch (issue 14: 240 MB less per SAKF in a Susi shard).
+arrays written epoch by epoch (a shard holds one value per refresh, not per epoch).
 
 The compiled kernel (:func:`susi_kernel`) processes the epochs between two
 refreshes for every trial and keeps its state across calls, so an AKF run
 in one call and the same filter run in 0.1-s pieces give the same bits.
 
-Lanes: :func:`susi_kernel` runs ``blocks.LANES`` (32) trials side by side, as
-the AEKF-AR kernel does (:mod:`.aekf_ar`), with its state carried between calls
-in lane layout (:class:`SusiState`, trial on the last axis, made by
-:func:`susi_state`); the blocks are the lane forms of the one-trial ones
-(:func:`.blocks.sparse_predict_lanes` with each lane's Q,
-:func:`.blocks.weighted_scalar_update_lanes`, :func:`.blocks.m2m4_lanes`),
-the discriminator (:mod:`.trig`'s sine, cosine, atan or atan2) is one SIMD
-evaluation and eq. (10) is evaluated per lane.  Results are bit-identical to the
-one-trial-at-a-time kernel this replaced, kept as :func:`susi_kernel_scalar`
-(``tests/test_kf_lanes.py``: every output and the carried state, as uint64,
-for susi_akf with atan, atan2 and nominal R, susi_sakf with atan2 and with
-atan, another refresh period and gain weighting, 10 ms and 1 ms, batches of 1,
-5, 31, 32, 33 and 100 trials with a NaN and an inf prompt, and direct calls
-over an irregular chunk schedule with new per-trial PSDs and weights in every
-chunk): per lane every floating-point operation is the scalar filter's, in the
-same order, never fused or reassociated (no fast-math).  A last block with
-fewer trials computes copies of its last trial (discarded).  Measured (CPU
-time, best of 5, 256 trials x 2000 epochs at 10 ms, machine loaded ~3 on 2
-cores): AKF PLL 3.5 -> 11.6 M filter-epochs/s; SAKF PLL 1.8 -> 3.1 (its
-0.1-s scintillation refresh in numpy now dominates).  AKF PLL at 20-100 trials
-x 3000 epochs: 2.4-2.9x; break-even at ~8 trials, below it slower (1 trial:
-0.6 against 3.4 M/s).
+Lanes: :func:`susi_kernel` runs ``blocks.LANES`` (32) trials side by side,
+with its state carried between calls in lane layout (:class:`SusiState`,
+trial on the last axis, made by :func:`susi_state`): one SIMD vector per
+matrix entry (:func:`.blocks.sparse_predict_lanes` with each lane's Q,
+:func:`.blocks.weighted_scalar_update_lanes`, :func:`.blocks.m2m4_lanes`), the
+discriminator (:mod:`.trig`'s sine, cosine, atan or atan2) one SIMD evaluation,
+eq. (10) per lane.  No operation is fused or reassociated (no fast-math) and
+no lane reads another, so a trial's result does not depend on its batch; a
+last block with fewer trials computes copies of its last trial (discarded).
+Tests (``tests/test_lane_kernels.py``): the kernel against
+:meth:`SusiKF.reference`, the same bits in batches of 1, 31, 32, 33 and 40
+trials (and over an irregular chunk schedule with new per-trial PSDs and
+weights in every chunk), NaN and inf prompts.
+
 :meth:`SusiKF.reference` is the textbook numpy form (explicit F, Q, H, S,
 K, Joseph P).  Loop analysis for tests and docs: :func:`steady_state_gain`
 (``scipy.linalg.solve_discrete_are``), :func:`loop_bandwidth_hz` (discrete,
@@ -88,7 +80,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -100,6 +92,7 @@ from ..models import clock as clock_models
 from . import blocks
 from .base import (
     Q_JERK_SCHEMA,
+    Tracker,
     TrackerContext,
     TrackInit,
     TrackOutput,
@@ -186,10 +179,9 @@ def susi_kernel(y, i0, i1, prm, st, s_phi, s_f, weight, out, innov, freq, r_out,
     ``s_phi``/``s_f``/``weight`` (per trial) are the scintillation PSDs of
     eqs. (7)-(8) and the gain weight of eq. (12) in force over these epochs.
 
-    Per lane, the operations and their order are those of the one-trial
-    kernel (:func:`susi_kernel_scalar`: predict with the trial's Q, the
-    discriminator on ``x[0]``, M2M4 and eq. (10), weighted Joseph update,
-    covariance test), so every trial's result is the one it has alone, bit for bit.
+    Per epoch and lane: predict with the trial's Q, the discriminator on
+    ``x[0]``, M2M4 and eq. (10), weighted Joseph update, covariance test; no
+    lane reads another, so every trial's result is the one it has alone, bit for bit.
     """
     L = blocks.LANES
     n_tr = y.shape[0]
@@ -253,65 +245,6 @@ def susi_kernel(y, i0, i1, prm, st, s_phi, s_f, weight, out, innov, freq, r_out,
         st.counters[blk, 0], st.counters[blk, 1] = pos, count
 
 
-@njit(cache=True)
-def susi_kernel_scalar(y, i0, i1, prm, x_all, P_all, buf2, buf4, sums, counters, s_phi, s_f, weight, out, innov, freq, r_out, cov_fail):
-    """The former one-trial-at-a-time kernel (the bits :func:`susi_kernel` reproduces; ``tests/test_kf_lanes.py``).
-
-    Epochs [i0, i1) of every trial; the state (x, P, M2M4 windows) is carried in the arrays.
-
-    ``cov_fail`` (trials,): first epoch whose updated P fails
-    :func:`.blocks.covariance_ok` (-1 none), carried across calls too.
-
-    ``s_phi``/``s_f``/``weight`` (per trial) are the scintillation PSDs of
-    eqs. (7)-(8) and the gain weight of eq. (12) in force over these epochs.
-    """
-    n_tr = y.shape[0]
-    rows, cols, vals, nnz = prm.nz_rows[0], prm.nz_cols[0], prm.nz_vals[0], prm.nz_count[0]
-    kap = np.zeros(3)
-    x = np.empty(3)
-    xp = np.empty(3)
-    P = np.empty((3, 3))
-    FP = np.empty((3, 3))
-    PH = np.empty(3)
-    Q = np.empty((3, 3))
-    for t in range(n_tr):
-        x[:] = x_all[t]
-        P[:, :] = P_all[t]
-        Q[:, :] = prm.Q_base
-        blocks.phase_frequency_q(s_phi[t], s_f[t], prm.ts, Q)
-        s2, s4 = sums[t, 0], sums[t, 1]
-        pos, count = counters[t, 0], counters[t, 1]
-        for i in range(i0, i1):
-            if i > 0:
-                blocks.predict(x, P, xp, FP, Q, kap, rows, cols, vals, nnz, False)
-            yr, yi = y[t, i].real, y[t, i].imag
-            if prm.costas:
-                nu = blocks.atan_discriminator(yr, yi, x[0])
-            else:
-                nu = blocks.atan2_discriminator(yr, yi, x[0])
-            if prm.adaptive:
-                p2 = yr * yr + yi * yi
-                pos, s2, s4, count = blocks.window_push(buf2[t], buf4[t], pos, s2, s4, count, p2, p2 * p2)
-                if count < prm.min_epochs:
-                    sig, noi = prm.prior_signal, prm.prior_noise
-                else:
-                    sig, noi = blocks.m2m4_split(s2 / count, s4 / count, prm.floor_fraction)
-                R = blocks.costas_variance(blocks.cn0_from_powers(sig, noi, prm.ts), prm.ts)
-            else:
-                R = prm.r_fixed
-            blocks.weighted_scalar_update(x, P, PH, prm.H, R, nu, weight[t])
-            if cov_fail[t] < 0 and not blocks.covariance_ok(P[0, 0], P[1, 1], P[0, 1]):
-                cov_fail[t] = i
-            out[t, i] = x[0]
-            innov[t, i] = nu
-            freq[t, i] = x[1]
-            r_out[t, i] = R
-        x_all[t] = x
-        P_all[t] = P
-        sums[t, 0], sums[t, 1] = s2, s4
-        counters[t, 0], counters[t, 1] = pos, count
-
-
 def quadratic_detrend(windows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Residual of a least-squares quadratic fit along the last axis (rows: trials), and its standard
     deviation per row (numpy's ``std``: the mean, then the mean square deviation from it).
@@ -320,8 +253,8 @@ def quadratic_detrend(windows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     :func:`_quadratic_basis`, computed by :func:`_detrend_rows` row by row in one fixed order, so a
     row's residual does not depend on which other rows are in the call.  A BLAS product
     (``w @ B``) does not promise that: OpenBLAS picks its kernel by the number of rows and the CPU,
-    and on an AVX-512 machine the same trial came out differently in a batch of 40 trials and in
-    batches of 32 + 8 (``tests/test_shard_batches.py``; issue 14).
+    so the same trial can come out differently in a batch of 40 trials and in batches of 32 + 8
+    (``tests/test_shard_batches.py``).
     """
     x = np.asarray(windows, dtype=float)
     rows = x if x.ndim == 2 else x.reshape(-1, x.shape[-1])
@@ -424,8 +357,9 @@ class GainWeighting:
 
 
 @dataclass
-class SusiKF:
+class SusiKF(Tracker):
     SPEC_OVERRIDES = {"q_jerk_hz2_s3": "q_jerk_hz2_s3"}
+    PROVIDES = frozenset({*RECORDABLE, "cov_fail_epoch"})
 
     ts: float
     clock: str
@@ -444,6 +378,10 @@ class SusiKF:
     fit_band_hz: tuple[float, float] = (0.5, 5.0)
     f_irregularity_hz: float = F_IRREGULARITY_HZ
     record: tuple[str, ...] = ("discriminator", "frequency_hz", "phi3", "T", "p", "weight")
+
+    def request(self, wanted: Collection[str] = ()) -> frozenset[str]:
+        """The series of ``record`` it computes (the monitors: SAKF only) and ``cov_fail_epoch``, whatever is wanted."""
+        return frozenset({*(name for name in self.record if self.scintillation or name not in MONITORS), "cov_fail_epoch"})
 
     # --- model ---------------------------------------------------------------
 

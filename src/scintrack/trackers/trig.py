@@ -49,7 +49,7 @@ from fractions import Fraction
 
 from numba import njit
 
-from .simd import floor, select_less
+from ..simd.lanes import floor, select_less
 
 
 def _machin_pi(bits: int = 240) -> Fraction:

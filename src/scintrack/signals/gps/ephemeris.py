@@ -199,7 +199,7 @@ def load(path: str | Path) -> list[Ephemeris]:
                                "use a GPS broadcast file (brdcDDD0.YYn)")
     out: list[Ephemeris] = []
     # one (time, sv) array per field, so that a satellite's records are a column of each: selecting and
-    # dropping empty records per satellite with xarray (sel + dropna) cost ~0.4 s a file (issue 14)
+    # dropping empty records per satellite with xarray (sel + dropna) costs ~0.4 s a file
     if any(set(nav[name].dims) != {"time", "sv"} for name in nav.data_vars):
         raise RinexFormatError(f"{path}: the navigation records do not form a (time, satellite) table; use an intact RINEX 2 GPS broadcast file")
     table = nav[list(nav.data_vars)].transpose("time", "sv")

@@ -279,8 +279,7 @@ def decode_subframe(sent: Sequence[int], d29s: int = 0, d30s: int = 0) -> tuple[
     The 300 bits are read into one integer at once and each word's 24 data bits
     written back through a byte table: the same words, data and verdicts as
     reading and writing bit by bit (:func:`_get`, :func:`_put`), at a quarter
-    of the Python operations (the Zhao receiver decodes ~7000 subframes per job;
-    issue 14, seventeenth round).
+    of the Python operations (the Zhao receiver decodes ~7000 subframes per job).
     """
     if len(sent) != SUBFRAME_BITS:
         raise LNAVDecodeError(f"sent: a subframe is {SUBFRAME_BITS} bits, got {len(sent)}; pass one whole subframe")
