@@ -89,13 +89,8 @@ def cores_per_worker() -> int:
 
 
 def experiment_jobs(experiments: dict) -> dict[str, int]:
-    """Jobs that a set of experiment specs (name -> spec) plans: one ``tracking_<name>`` job per experiment with
-    ``shards: 1``; per scenario ``shards`` tracking_shard jobs and one tracking_merge otherwise (rules with no job left out)."""
-    multi = [e for e in experiments.values() if int(e["shards"]) > 1]
-    jobs = {"tracking_shard": sum(len(e["scenarios"]) * int(e["shards"]) for e in multi),
-            "tracking_merge": sum(len(e["scenarios"]) for e in multi),
-            **{f"tracking_{name}": 1 for name, e in experiments.items() if int(e["shards"]) == 1}}
-    return {rule: n for rule, n in jobs.items() if n}
+    """Jobs that a set of experiment specs (name -> spec) plans: one ``tracking_<name>`` job per experiment."""
+    return {f"tracking_{name}": 1 for name in experiments}
 
 
 def run_targets(workdir: Path, *targets: str, overlays=(), timeout: float = 600) -> subprocess.CompletedProcess:

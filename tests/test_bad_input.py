@@ -21,7 +21,7 @@ sampling period the rule passes, under the same hook) once each container has
 one case that goes through Snakemake end to end (``trace_nan``: npz,
 ``trace_inf_netcdf``: NetCDF, which also cover the job's renaming of the
 verified copy to the user's file).  Each Snakemake case costs two job processes
-and a Snakemake start-up, ~2.7 CPU-s against ~0.8 (issue 14, test-suite time).
+and a Snakemake start-up, ~2.7 CPU-s against ~0.8.
 """
 
 from __future__ import annotations

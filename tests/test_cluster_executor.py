@@ -1,23 +1,16 @@
-"""Scale-out without code change: the sharded smoke DAG through a cluster executor.
+"""Scale-out without code change: part of the smoke DAG through a cluster executor.
 
-``fig16`` needs the three ``cycle_slips`` results of the smoke config, two
-shards each, and the AR look-up table.  The look-up table and the results of
-the second and third scenarios are taken from the session's smoke run (copied
-with their modification times, so Snakemake sees them up to date): the
-sharded part of the DAG (shards -> merge -> figure) is what this test is
-about, and each job under this executor costs a Snakemake start-up of its own
-on the suite's longest chain (issue 14, test-suite time).  The first
-scenario's two shards, its merge and the figure are built here; the other
-scenarios' shards are the same rule with other wildcards, and the one-core
-build in ``tests/test_reproducibility.py`` covers the upstream rules.  Built
-with Snakemake's generic cluster executor, whose submit command is
-``tests/cluster/submit.sh`` (a stand-in for sbatch: it records each
-submission and starts the job script in the background as a process of its
-own), every shard must be a job of its own, every job must be submitted with
+``fig16`` needs the three ``cycle_slips`` results of the smoke config (one
+job, ``tracking_cycle_slips``, two blocks of trials per scenario) and the AR
+look-up table.  The look-up table is taken from the session's smoke run
+(copied with its modification time, so Snakemake sees it up to date); the
+experiment's job and the figure are built here with Snakemake's generic
+cluster executor, whose submit command is ``tests/cluster/submit.sh`` (a
+stand-in for sbatch: it records each submission and starts the job script in
+the background as a process of its own).  Every job must be submitted with
 the threads and resources its rule declares (``scintrack.pipeline.resources``)
 and the results must equal the same targets of the smoke DAG, which the local
-executor built with the same config in the session's smoke run (a second local
-build of the same targets would only repeat it: issue 14, test-suite time).
+executor built with the same config in the session's smoke run.
 """
 
 from __future__ import annotations
@@ -40,13 +33,12 @@ pytestmark = pytest.mark.pipeline
 
 SUBMIT = REPO / "tests" / "cluster" / "submit.sh"
 SMOKE = load_config([REPO / "config" / "config.yaml", REPO / "config" / "smoke.yaml"])
-EXPERIMENT = "cycle_slips"  # the smoke experiment with more than one shard
+EXPERIMENT = "cycle_slips"  # the smoke experiment with more than one block of trials per scenario
 TARGETS = ("fig16",)  # Fig. 16 reads the experiment's three results
 DEFAULTS = {"mem_mb": 1000, "runtime": 10}  # --default-resources: the rules that declare none
 LUT = Path("results/ar_models/ar_lut.nc")  # copied from the smoke run (see the module docstring)
 SCENARIOS = SMOKE["experiments"][EXPERIMENT]["scenarios"]
-BUILT = SCENARIOS[0]  # its shards and merge run under the cluster executor; the other results are copied
-COPIED = [Path("results/experiments") / EXPERIMENT / f"{s}.nc" for s in SCENARIOS[1:]]
+RESULTS = [Path("results/experiments") / EXPERIMENT / f"{s}.nc" for s in SCENARIOS]
 
 
 def snakemake(workdir: Path, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
@@ -59,10 +51,8 @@ def snakemake(workdir: Path, *args: str, timeout: float = 300) -> subprocess.Com
 
 def declared(rule: str, output: str) -> tuple[int, int, int]:
     """(threads, mem_mb, runtime) that ``rule`` declares for the job writing ``output``."""
-    if rule == "tracking_shard":  # results/experiments/<experiment>/<scenario>/shard-<k>.nc
-        *_, experiment, scenario, name = Path(output).parts
-        shard = int(name.removeprefix("shard-").removesuffix(".nc"))
-        return 1, R.shard_mem_mb(SMOKE, experiment, scenario, shard), R.shard_runtime(SMOKE, experiment, scenario, shard)
+    if rule == f"tracking_{EXPERIMENT}":
+        return 1, R.experiment_mem_mb(SMOKE, EXPERIMENT), R.experiment_runtime(SMOKE, EXPERIMENT)
     if rule in R.MEASURED:
         return 1, R.mem_mb(rule), R.runtime(rule)
     return 1, DEFAULTS["mem_mb"], DEFAULTS["runtime"]
@@ -70,7 +60,8 @@ def declared(rule: str, output: str) -> tuple[int, int, int]:
 
 def expected_jobs() -> collections.Counter:
     spec = SMOKE["experiments"][EXPERIMENT]
-    return collections.Counter({"tracking_shard": int(spec["shards"]), "tracking_merge": 1, "fig16": 1})
+    assert int(spec["shards"]) > 1
+    return collections.Counter({f"tracking_{EXPERIMENT}": 1, "fig16": 1})
 
 
 def assert_same_dataset(a: Path, b: Path) -> None:
@@ -86,9 +77,8 @@ def assert_same_dataset(a: Path, b: Path) -> None:
 def builds(tmp_path_factory, smoke_run):
     """The targets built by the cluster executor, and the smoke run (the local executor, same config)."""
     cluster, local = tmp_path_factory.mktemp("cluster"), smoke_run
-    for rel in (LUT, *COPIED):  # the smoke run's files, their mtimes kept: up to date
-        (cluster / rel).parent.mkdir(parents=True, exist_ok=True)
-        shutil.copy2(local / rel, cluster / rel)
+    (cluster / LUT).parent.mkdir(parents=True, exist_ok=True)
+    shutil.copy2(local / LUT, cluster / LUT)  # the smoke run's file, its mtime kept: up to date
     log = cluster / "submissions" / "jobs.tsv"
     log.parent.mkdir()
     submit = f"bash {shlex.quote(str(SUBMIT))} {shlex.quote(str(log))} {{rule}} {{threads}} {{resources.mem_mb}} {{resources.runtime}} '{{output}}'"
@@ -100,15 +90,14 @@ def builds(tmp_path_factory, smoke_run):
     return cluster, local, rows
 
 
-def test_every_shard_is_its_own_job(builds):
+def test_every_job_is_submitted_once_as_its_own_process(builds):
     cluster, _, rows = builds
     assert collections.Counter(r[1] for r in rows) == expected_jobs()
     assert len({r[0] for r in rows}) == len(rows)  # one job id per submission
     for job_id, *_ in rows:  # each ran as its own process, with its own output
         assert (cluster / "submissions" / f"{job_id}.out").exists(), job_id
-    spec = SMOKE["experiments"][EXPERIMENT]
-    shards = sorted(r[5] for r in rows if r[1] == "tracking_shard")
-    assert shards == [f"results/experiments/{EXPERIMENT}/{BUILT}/shard-{k}.nc" for k in range(int(spec["shards"]))]
+    (experiment_row,) = [r for r in rows if r[1] == f"tracking_{EXPERIMENT}"]
+    assert sorted(experiment_row[5].split()) == sorted(map(str, RESULTS))
 
 
 def test_jobs_submitted_with_declared_resources(builds):
@@ -116,16 +105,16 @@ def test_jobs_submitted_with_declared_resources(builds):
     for _, rule, threads, mem_mb, runtime, output in rows:
         assert (int(threads), int(mem_mb), int(runtime)) == declared(rule, output.split()[0]), (rule, output)
     # the declarations are not the defaults: the resources came from the rules
-    assert all(declared(r[1], r[5])[1:] != (DEFAULTS["mem_mb"], DEFAULTS["runtime"]) for r in rows if r[1] in R.MEASURED or r[1] == "tracking_shard")
+    assert all(declared(r[1], r[5])[1:] != (DEFAULTS["mem_mb"], DEFAULTS["runtime"]) for r in rows if r[1] in R.MEASURED or r[1].startswith("tracking_"))
 
 
 def test_cluster_results_equal_local_results(builds):
     cluster, local, _ = builds
-    assert_same_dataset(cluster / "results" / "experiments" / EXPERIMENT / f"{BUILT}.nc", local / "results" / "experiments" / EXPERIMENT / f"{BUILT}.nc")
-    for rel in (LUT, *COPIED):  # the copied files were not rebuilt
-        assert (cluster / rel).stat().st_mtime_ns == (local / rel).stat().st_mtime_ns, rel
+    for rel in RESULTS:
+        assert_same_dataset(cluster / rel, local / rel)
+    assert (cluster / LUT).stat().st_mtime_ns == (local / LUT).stat().st_mtime_ns  # the copied file was not rebuilt
     assert not (cluster / "data").exists()
     figure = sorted(p.relative_to(local) for p in (local / "figures").rglob("fig16_*.png"))
     assert len(figure) == 1
     assert (cluster / figure[0]).read_bytes() == (local / figure[0]).read_bytes()
-    assert not list((cluster / "results" / "experiments" / EXPERIMENT).rglob("shard-*.nc"))  # temp(): removed after the merge
+    assert not list((cluster / "results" / "experiments" / EXPERIMENT).rglob("shard-*.nc"))  # blocks live in a temporary folder only

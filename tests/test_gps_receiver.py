@@ -132,7 +132,7 @@ def test_memoised_priors_equal_a_fresh_predictor_per_trial(run):
 
 
 def test_channel_holds_one_trackers_1ms_arrays_at_a_time(run):
-    """Peak memory of a channel (issue 14: a full-size Zhao channel job reached 2.05 GiB).  Each carrier
+    """Peak memory of a channel (a full-size Zhao channel job reached 2.05 GiB).  Each carrier
     tracker's DLL runs as soon as that tracker's 1-ms phase and frequency exist and they are dropped after it,
     instead of holding the DLL inputs of all four trackers (8 arrays of (trials, 1-ms epochs)) and the 1-ms
     prompts until the end.  Measured here in units of one float64 (trials, epochs) array: 30.5 before, 24.0

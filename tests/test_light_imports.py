@@ -1,4 +1,4 @@
-"""Snakemake builds the DAG without the numerical stack (issue 14).
+"""Snakemake builds the DAG without the numerical stack.
 
 Every ``snakemake`` invocation parses the Snakefile and the rule files and
 calls the params, input and resource functions of every job; importing

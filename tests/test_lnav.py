@@ -114,7 +114,7 @@ def test_a_flipped_bit_fails_its_word_and_values_out_of_range_are_refused():
 
 
 def test_decode_subframe_equals_reading_bit_by_bit_and_rejects_other_values():
-    """The one-integer read (issue 14) gives the words, data and verdicts of the bit-by-bit _get/_put form."""
+    """The one-integer read gives the words, data and verdicts of the bit-by-bit _get/_put form."""
     import random
 
     from scintrack.signals.gps import lnav

@@ -16,7 +16,7 @@ temporary), with ``--rerun-triggers`` without ``mtime`` so that copied inputs
 older or newer than nothing do not matter.  A job that read a file it does not
 declare would find it missing here, so this also checks the declared inputs.
 Building every upstream job again (the first version of this test: 38 jobs
-against 30) or the whole DAG would add suite time (issue 14) for no rule not
+against 30) or the whole DAG would add suite time for no rule not
 already covered.
 """
 
@@ -87,10 +87,9 @@ def one_core_run(smoke_run, tmp_path_factory):
 
 def test_one_core_build_equals_the_two_core_smoke_run(smoke_run, one_core_run):
     workdir, computing, built, written, copied, summary = one_core_run
-    assert len(computing) >= 20 and {"tracking_merge", "tracking_shard", "zhao_channel", "vv_floors", "trace_tracking"} <= set(computing)
-    assert any(rule.startswith("tracking_") and rule not in ("tracking_merge", "tracking_shard") for rule in computing)
+    assert len(computing) >= 20 and {"tracking_cycle_slips", "zhao_channel", "vv_floors", "trace_tracking"} <= set(computing)
     assert set(written) >= built  # every target (and every output of fig01/table01) was written by this run
-    covered = {summary[p][0] for p in written if p in summary} | {"tracking_shard"}  # shards are temporary: seen through their merge
+    covered = {summary[p][0] for p in written if p in summary}
     assert set(computing) <= covered, set(computing) - covered
     assert copied and all(p.stat().st_mtime_ns == t for p, t in copied.items() if str(p.relative_to(workdir)) not in written)
     kinds = {"nc": 0, "bin": 0, "other": 0}

@@ -20,7 +20,7 @@ def test_the_table_names_every_rule_snakemake_knows():
                           timeout=300, env=snakemake_env(), cwd=REPO)
     assert proc.returncode == 0, proc.stderr[-2000:]
     known = {line.split()[0] for line in proc.stdout.splitlines() if re.match(r"^\w+$", line.strip())}
-    assert len(known) > 50 and {"all", "tracking_shard", "fig07", "table03"} <= known
+    assert len(known) > 50 and {"all", "tracking_cycle_slips", "fig07", "table03"} <= known
     table = render(REPO)
     listed = set(re.findall(r"^\| `(\w+)` \|", table, re.M))
     assert known <= listed, sorted(known - listed)

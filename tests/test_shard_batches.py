@@ -1,4 +1,4 @@
-"""A shard simulated and tracked in batches of trials gives the same bits as in one batch (issue 14).
+"""A shard simulated and tracked in batches of trials gives the same bits as in one batch.
 
 :func:`scintrack.experiments.runner.run_shard` bounds a job's memory by simulating and tracking at most
 ``batch_trial_epochs`` trial-epochs at once.  Every variable of the result (per-trial statistics, sums over

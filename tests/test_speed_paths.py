@@ -1,4 +1,4 @@
-"""The fast paths of issue 14 give exactly what the plain paths give.
+"""The fast paths give exactly what the plain paths give.
 
 Each speed-up kept a result bit-identical (or, for the Levinson solve, equal
 to the dense solve within rounding); these tests pin that down so a later
@@ -413,26 +413,31 @@ def test_wrap_is_angle_of_exp_to_the_last_place_and_leaves_in_range_values_alone
     assert wrap(-np.pi) == -np.pi and wrap(np.pi) == np.pi
 
 
-def test_single_job_result_is_the_shard_plus_merge_result(tmp_path):
-    """A single-shard experiment's job (one process per experiment) gives the content of tracking_shard + tracking_merge
-    (two jobs), bit for bit."""
+@pytest.mark.parametrize("shards", [1, 2])
+def test_scenario_result_is_its_blocks_written_read_and_merged(tmp_path, shards):
+    """The experiment job's result of a scenario equals its blocks of trials run as separate shards, each written to a
+    file and read back, then merged (what separate shard and merge jobs would give), bit for bit."""
     from test_aekf_study import _tiny_lut
 
     from scintrack.config import load_config
     from scintrack.experiments.merge import merged_result
-    from scintrack.experiments.shard_job import shard_result, single_result
+    from scintrack.experiments.shard_job import scenario_result, shard_result
     from scintrack.io import content_hash, open_dataset, write_netcdf
     from scintrack.pipeline import params
 
     config = load_config([ROOT / "config" / "config.yaml", ROOT / "config" / "smoke.yaml"])
-    config["experiments"]["case1_free"]["trials"] = 3
+    config["experiments"]["case1_free"].update(trials=3, shards=shards)
     run = params.experiment(config, "case1_free", "free")
     lut = tmp_path / "lut.nc"
     write_netcdf(_tiny_lut(), lut)
-    one = single_result(run, lut=str(lut), inputs=[str(lut)])
-    shard = shard_result({**run, "trials": [0, 1, 2]}, [0, 1, 2], lut=str(lut), inputs=[str(lut)])
-    write_netcdf(shard, tmp_path / "shard-0.nc")
-    two = merged_result([open_dataset(tmp_path / "shard-0.nc")], run, [str(tmp_path / "shard-0.nc")])
+    one = scenario_result(run, lut=str(lut), inputs=[str(lut)])
+    blocks = params.trial_blocks(3, shards)
+    assert sorted(t for b in blocks for t in b) == [0, 1, 2] and len(blocks) == shards
+    files = []
+    for k, trials in enumerate(blocks):
+        files.append(tmp_path / f"shard-{k}.nc")
+        write_netcdf(shard_result({**run, "trials": trials}, trials, lut=str(lut), inputs=[str(lut)]), files[-1])
+    two = merged_result([open_dataset(f) for f in files], run, [str(f) for f in files])
     assert content_hash(one) == content_hash(two)
     assert sorted(one.variables) == sorted(two.variables)
     for name in one.variables:

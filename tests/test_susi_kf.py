@@ -163,7 +163,7 @@ def test_quadratic_detrend_is_the_least_squares_residual_row_by_row(n):
     """Closed forms: the residual of a quadratic is 0, the residual is orthogonal to {1, m, m^2} and equals
     numpy's least-squares residual, its std is numpy's std of it; and a row's residual and std have the same
     bits alone, in a batch of 40, in batches of 32 + 8 and as a strided view (a BLAS product did not, on an
-    AVX-512 CPU: issue 14)."""
+    AVX-512 CPU)."""
     rng = np.random.default_rng(n)
     x = np.cumsum(rng.standard_normal((40, n)), axis=1)
     m = np.linspace(-1.0, 1.0, n)

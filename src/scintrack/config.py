@@ -186,7 +186,7 @@ def check_consistency(config: Mapping[str, Any], source: str = "config/config.ya
     remembered under the code version of this module's import closure
     (:func:`scintrack.codeversion.remembered`) and not checked again, so
     Snakemake builds the DAG without importing the tracker modules (numba)
-    and xarray until the config or the code changes (issue 14).  A config
+    and xarray until the config or the code changes.  A config
     that fails is checked, and refused, every time.
     """
     from .codeversion import remembered

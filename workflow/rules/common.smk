@@ -116,14 +116,6 @@ AR_LUT = paths.AR_LUT
 VV_DIAGNOSTICS = paths.VV_DIAGNOSTICS
 
 
-def experiment_params(wc):
-    """Everything one (experiment, scenario) result depends on."""
-    try:
-        return P.experiment(config, wc.experiment, wc.scenario)
-    except KeyError as exc:
-        fail(str(exc).strip("'\""))
-
-
 def experiment_runs(experiment):
     """scenario -> everything that scenario's result depends on, for the one job of a single-shard experiment."""
     try:
@@ -142,18 +134,6 @@ def experiment_inputs(experiment):
             fail(str(exc).strip("'\""))
         if trace:
             out[f"trace_{scenario}"] = trace
-    return out
-
-
-def shard_inputs(wc):
-    """The AR look-up table (wrapped-phase fits when the experiment says ``lut: wrapped``), and the trace of a trace scenario (Susi 2014)."""
-    out = {"lut": paths.lut_path(config["experiments"][wc.experiment].get("lut", "unwrapped"))}
-    try:
-        trace = paths.scenario_trace_path(config, wc.scenario)
-    except KeyError as exc:
-        fail(str(exc).strip("'\""))
-    if trace:
-        out["trace"] = trace
     return out
 
 

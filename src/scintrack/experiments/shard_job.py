@@ -1,17 +1,18 @@
-"""The experiment jobs of the workflow: one shard of trials, and one whole (experiment, scenario).
+"""The experiment job of the workflow: every scenario of an experiment, each in blocks ("shards") of trials.
 
-An (experiment, scenario) whose trials are split into ``shards > 1`` runs as
-one ``tracking_shard`` job per block of trials plus one ``tracking_merge``.
-An experiment with ``shards: 1`` runs as one job that calls
-:func:`single_result` for each of its scenarios: the shard and the merge in
-one process.  The single result is the merge of its one shard after an exact
-NetCDF round trip, so it has the content of the two-job path bit for bit
-(``tests/test_speed_paths.py``).
+An experiment runs as one job (rule ``tracking_<experiment>``).  Each of its
+scenarios runs its trials in ``shards`` contiguous blocks
+(:func:`scintrack.pipeline.params.trial_blocks`), one after the other; each
+block goes through an uncompressed NetCDF file and back (so the merge sees
+exactly the types and values a file gives) and the blocks are merged by adding
+their per-epoch sums (:func:`.merge.merged_result`).  The number of blocks is
+part of the result: another split groups those sums differently, at the
+rounding level.
 
-Everything comes from the rule's params (:func:`scintrack.pipeline.params.experiment`,
-plus the shard's ``trials``); the result records the hash of exactly those values.
-A trace scenario (Susi 2014) also reads its trace: the AR models of its fitting
-part and the part it tracks.
+Everything comes from the rule's params (:func:`scintrack.pipeline.params.experiment`);
+the result records the hash of exactly those values.  A trace scenario (Susi
+2014) also reads its trace: the AR models of its fitting part and the part it
+tracks.
 """
 
 from __future__ import annotations
@@ -54,20 +55,23 @@ def shard_result(run: Mapping[str, Any], trials: Sequence[int], *, lut: str, tra
     return ds
 
 
-def single_result(run: Mapping[str, Any], *, lut: str, trace: str | None = None, inputs: Sequence[str] = (),
-                  progress: Callable[[str], object] | None = None) -> xr.Dataset:
-    """All trials of an (experiment, scenario) in one shard, merged: what ``tracking_shard`` + ``tracking_merge`` give.
+def scenario_result(run: Mapping[str, Any], *, lut: str, trace: str | None = None, inputs: Sequence[str] = (),
+                    progress: Callable[[str], object] | None = None) -> xr.Dataset:
+    """All trials of an (experiment, scenario): its blocks of trials run one after the other and merged.
 
-    The shard goes through a NetCDF file and back first, exactly as between
-    the two jobs, so that the merge sees the same types and values.  Both write
-    that hand-off uncompressed (the result itself is compressed): zlib changes
-    no value, and the hand-off is written ~4x and read ~4x faster (a 40-MB
-    cycle-slip result: written in 0.10 s instead of 0.45, read in 0.025 s
-    instead of 0.10).
+    Each block is written uncompressed to a temporary file and read back before the merge (zlib changes
+    no value; an uncompressed file is written and read about 4x faster), and a block's arrays are freed
+    before the next block runs, so the job holds one block's simulation at a time.
     """
-    shard = shard_result(run, range(int(run["n_trials"])), lut=lut, trace=trace, inputs=inputs, progress=progress)
-    with tempfile.TemporaryDirectory(prefix="scintrack-shard-") as tmp:
-        path = Path(tmp) / "shard-0.nc"
-        write_netcdf(shard, path, compress=False)
-        reread = open_dataset(path)  # loaded into memory, file closed
-    return merged_result([reread], run, inputs)
+    from ..pipeline.params import trial_blocks
+
+    blocks = trial_blocks(int(run["n_trials"]), int(run["shards"]))
+    with tempfile.TemporaryDirectory(prefix="scintrack-shards-") as tmp:
+        shards = []
+        for k, trials in enumerate(blocks):
+            path = Path(tmp) / f"shard-{k}.nc"
+            write_netcdf(shard_result(run, trials, lut=lut, trace=trace, inputs=inputs, progress=progress), path, compress=False)
+            shards.append(open_dataset(path))  # loaded into memory, file closed
+            if progress is not None and len(blocks) > 1:
+                progress(f"{run['scenario_name']}: block {k + 1}/{len(blocks)} (trials {trials[0]}..{trials[-1]})")
+    return merged_result(shards, run, inputs)

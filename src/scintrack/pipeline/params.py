@@ -172,22 +172,14 @@ def floors(config: Mapping[str, Any], scenario: str) -> dict[str, Any]:
     }
 
 
-def single_shard_experiments(config: Mapping[str, Any]) -> list[str]:
-    """The experiments with ``shards: 1``, in config order (each runs as one job over its scenarios)."""
-    return [n for n, e in config["experiments"].items() if int(e["shards"]) == 1]
-
-
-def experiment_names_regex(config: Mapping[str, Any], *, multi_shard: bool) -> str:
-    """Regex matching exactly the experiments with ``shards > 1`` (``multi_shard``) or ``shards == 1``
-    (the ``{experiment}`` wildcard constraint of the rules that run them; never matches when there are none)."""
-    import re
-
-    names = sorted(n for n, e in config["experiments"].items() if (int(e["shards"]) > 1) == multi_shard)
-    return "|".join(re.escape(n) for n in names) if names else "(?!)"
-
-
 def shard_trials(config: Mapping[str, Any], name: str, shard: int) -> list[int]:
-    """Contiguous block of trial indices of one shard.
+    """The trial indices of block ``shard`` of experiment ``name`` (:func:`trial_blocks`)."""
+    spec = config["experiments"][name]
+    return trial_blocks(int(spec["trials"]), int(spec["shards"]))[shard]
+
+
+def trial_blocks(n: int, k: int) -> list[list[int]]:
+    """The ``k`` contiguous blocks ("shards") of the trial indices ``0..n-1``.
 
     The trials are dealt out as evenly as possible, in whole lane blocks of ``LANES`` (32) trials when that
     takes fewer of them: the compiled trackers run a lane block's trials side by side and cost as much for
@@ -198,13 +190,11 @@ def shard_trials(config: Mapping[str, Any], name: str, shard: int) -> list[int]:
     """
     from ..simd import LANES  # light (no numba)
 
-    spec = config["experiments"][name]
-    n, k = int(spec["trials"]), int(spec["shards"])
     edges = [round(i * n / k) for i in range(k + 1)]
     blocks = -(-n // LANES)
     if blocks >= k and blocks < sum(-(-(hi - lo) // LANES) for lo, hi in zip(edges, edges[1:])):
         edges = [min(round(i * blocks / k) * LANES, n) for i in range(k + 1)]
-    return list(range(edges[shard], edges[shard + 1]))
+    return [list(range(lo, hi)) for lo, hi in zip(edges, edges[1:])]
 
 
 # --- Sec. VI-E: real traces or the surrogate -------------------------------------

@@ -17,8 +17,8 @@ time :data:`RUNTIME_FACTOR` x wall and at least :data:`MIN_RUNTIME_MIN`
 minutes (:func:`mem_mb_for`, :func:`runtime_for`).
 
 Where the cost follows the config, the declaration scales with the job's
-size: a tracking shard with its trials x epochs (memory) and trials x epochs
-x trackers (time), a Zhao channel with its trials per batch x duration
+size: an experiment's job with the trials x epochs of its largest block
+(memory) and its trials x epochs x trackers (time), a Zhao channel with its trials per batch x duration
 (memory) and trials x duration (time), so a larger config asks for more
 without an edit here.
 
@@ -40,11 +40,8 @@ MEM_MARGIN = 1.5  # declared memory = 1.5 x measured peak (rounded up to 100 MB)
 RUNTIME_FACTOR = 4  # declared run time = 4 x measured wall (rounded up to minutes) ...
 MIN_RUNTIME_MIN = 5  # ... and never below 5 minutes (start-up, a loaded or slower node)
 
-# rule: (max_rss MB, wall s), the largest over the rule's jobs in three
-# measurements at the same code on 2026-12-01: a complete full run, a full run
-# stopped after 44 jobs, and the rules without a benchmark: rerun one job at a
-# time on the complete run's inputs (wall times there were taken with four
-# processes on the two cores, hence larger).
+# rule: (max_rss MB, wall s), the largest over the rule's jobs in full runs
+# (the rules without a benchmark: one job at a time on a finished run's inputs).
 MEASURED: dict[str, tuple[float, float]] = {
     "csm_training_set": (267.1, 5.3),
     "ar_fit": (196.6, 75.5),  # the unwrapped and the wrapped fits of one training set
@@ -52,7 +49,6 @@ MEASURED: dict[str, tuple[float, float]] = {
     "ar_lut_wrapped": (102.3, 3.7),
     "ar_diagnostics": (188.4, 4.8),
     "vv_floors": (491.0, 27.0),  # the six Table III cells one after the other (4.5 s each)
-    "tracking_merge": (334.1, 3.0),
     "surrogate_event": (231.8, 15.7),
     "trace_ar_models": (287.5, 5.1),
     "trace_diagnostics": (344.8, 5.9),
@@ -63,22 +59,20 @@ MEASURED: dict[str, tuple[float, float]] = {
     "gps_iq_recording": (389.2, 2.1),
     "zhao_cn0_estimates": (350.5, 1.8),
     "zhao_iq_spectrum": (459.3, 3.1),
-    "zhao_channel": (1359.8, 37.3),  # max_rss re-measured 2026-12-03 (full run, trial_batch 20, in a fork of the job server)
+    "zhao_channel": (1359.8, 37.3),  # full run, trial_batch 20
     "zhao_receiver": (374.1, 2.7),
-    "zhao_bit_prediction": (242.5, 2.7),  # 2026-12-03: one run of the job on the full dataset, its own process
+    "zhao_bit_prediction": (242.5, 2.7),  # one run of the job on the full dataset
     "zhao_cn0_sweep_point": (1353.5, 89.4),
 }
 
-# Tracking shards (rule tracking_shard), fitted to the 105 shards of the full
-# run and the smoke run: peak memory = SHARD_BASE_MB + SHARD_KB_PER_TRIAL_EPOCH
-# x trials held x epochs (the simulated signals of the trials a shard holds at
-# once, scintrack.batching.trials_held; the CSM and AR worlds also
-# hold the nspa sub-samples), wall = SHARD_START_S + SHARD_US_PER_FILTER_EPOCH x
-# trials x epochs x trackers.  Largest measured before the batching: cycle_slips
-# (100 trials x 50000 epochs, 5 trackers) 2102 MB and 23 s; susi_alpha (25
-# trials x 300000 epochs at 1 ms, 6 trackers) 1473 MB and 58 s.  With it
-# (2026-12-03, full run): cycle_slips 602-657 MB (32 trials held), susi_alpha
-# 1392 MB; the model's 990 and 1850 MB stay above both.
+# Blocks of trials of an experiment's job (rule tracking_<experiment>), fitted
+# to measured blocks of the full and the smoke run: peak memory = SHARD_BASE_MB
+# + SHARD_KB_PER_TRIAL_EPOCH x trials held x epochs (the simulated signals of the
+# trials a block holds at once, scintrack.batching.trials_held; the CSM and AR
+# worlds also hold the nspa sub-samples), wall = SHARD_START_S +
+# SHARD_US_PER_FILTER_EPOCH x trials x epochs x trackers.  Largest measured:
+# a cycle_slips block 602-657 MB (32 trials held), a susi_alpha block 1392 MB;
+# the model's 990 and 1850 MB stay above both.
 SHARD_BASE_MB = 350.0
 SHARD_KB_PER_TRIAL_EPOCH = {"csm": 0.4, "ar": 0.4, "trace": 0.2}
 SHARD_START_S = 10.0
@@ -139,16 +133,19 @@ def shard_runtime(config: Mapping[str, Any], experiment: str, scenario: str, sha
 
 
 def experiment_mem_mb(config: Mapping[str, Any], experiment: str) -> int:
-    """Declared memory of a single-shard experiment's job: the largest of its scenarios (they run one after the other)."""
-    return max(shard_mem_mb(config, experiment, s, 0) for s in config["experiments"][experiment]["scenarios"])
+    """Declared memory of an experiment's job: its largest block of trials (the blocks and scenarios run one after the other)."""
+    spec = config["experiments"][experiment]
+    return max(shard_mem_mb(config, experiment, s, k) for s in spec["scenarios"] for k in range(int(spec["shards"])))
 
 
 def experiment_runtime(config: Mapping[str, Any], experiment: str) -> int:
-    """Declared run time of a single-shard experiment's job: the sum of its scenarios' modelled walls x RUNTIME_FACTOR."""
+    """Declared run time of an experiment's job: the modelled walls of all its blocks x RUNTIME_FACTOR."""
+    spec = config["experiments"][experiment]
     wall = 0.0
-    for scenario in config["experiments"][experiment]["scenarios"]:
-        trials, epochs, trackers, _ = shard_size(config, experiment, scenario, 0)
-        wall += SHARD_US_PER_FILTER_EPOCH * 1e-6 * trials * epochs * trackers
+    for scenario in spec["scenarios"]:
+        for k in range(int(spec["shards"])):
+            trials, epochs, trackers, _ = shard_size(config, experiment, scenario, k)
+            wall += SHARD_US_PER_FILTER_EPOCH * 1e-6 * trials * epochs * trackers
     return runtime_for(SHARD_START_S + wall)
 
 

@@ -5,8 +5,8 @@ in a loop from declarations elsewhere, so their names appear in no rule file:
 
 * a figure or table rule per function registered with ``@figure``/``@table``
   (:mod:`scintrack.products`): the rule is named as the decorator says;
-* a ``tracking_<experiment>`` rule per experiment with ``shards: 1`` in the
-  config (``workflow/rules/experiments.smk``).
+* a ``tracking_<experiment>`` rule per experiment in the config
+  (``workflow/rules/experiments.smk``).
 
 ``python -m scintrack rules-doc`` prints the table for ``config/config.yaml``;
 ``docs/pipeline.md`` holds it between two markers and a test keeps it current.
@@ -59,16 +59,15 @@ def _cell(items) -> str:
 def rules_table(config: Mapping[str, Any], rules_dir: Path) -> str:
     """The Markdown table of every rule of the workflow with ``config`` (literal, experiment, figure and table rules)."""
     from ..pipeline import paths
-    from ..pipeline.params import single_shard_experiments
     from .registry import products
 
     rows = ["| rule | declared in | what it makes | code | outputs |", "|---|---|---|---|---|"]
     for name, where, doc, script in literal_rules(rules_dir):
         rows.append(f"| `{name}` | `{where}` | {doc} | `{script}` | |")
-    for exp in single_shard_experiments(config):
-        outs = [paths.exp_result(exp, s) for s in config["experiments"][exp]["scenarios"]]
-        rows.append(f"| `tracking_{exp}` | `config/config.yaml` (experiments.{exp}, shards: 1) | every tracker of the experiment on its "
-                    f"scenarios | `workflow/scripts/run_experiment.py` | {_cell(outs)} |")
+    for exp, spec in config["experiments"].items():
+        outs = [paths.exp_result(exp, s) for s in spec["scenarios"]]
+        rows.append(f"| `tracking_{exp}` | `config/config.yaml` (experiments.{exp}) | every tracker of the experiment on its "
+                    f"scenarios ({spec['trials']} trials in {spec['shards']} block(s)) | `workflow/scripts/run_experiment.py` | {_cell(outs)} |")
     for name, product in products().items():
         code = f"{product.module}.{product.function.__name__}"
         where = "src/" + product.module.replace(".", "/") + ".py"

@@ -2,9 +2,9 @@
 
 The SAKF's monitors (Phi3, T, p and the gain weight; :mod:`.susi_kf`) change
 only when the scintillation blocks refresh, every ``update_s`` (100 epochs at
-1 ms), yet a (trials, epochs) array of each was written epoch by epoch: four
+1 ms); a (trials, epochs) array of each, written epoch by epoch, would be four
 arrays of 60 MB for 25 trials x 300 000 epochs, the largest part of a Susi
-shard's fresh memory after the prompts (issue 14, round 14).
+shard's fresh memory after the prompts.
 :class:`HeldSeries` keeps the values of each run once, ``values`` shaped
 (trials, runs), with the first epoch of every run in ``starts``.
 

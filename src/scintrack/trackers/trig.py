@@ -2,12 +2,12 @@
 
 Every tracker evaluates, per trial and epoch, the replica's ``cos`` and ``sin``
 (the NCO phase, the EKF's linearisation point) and an ``atan2`` / ``atan``
-discriminator.  Called from libm, one lane at a time, these were ~42 of the
-PLL's ~45 ns per filter-epoch (issue 14); the functions here are written once
-in ``+ - * /``, ``abs``, :func:`.simd.floor` and :func:`.simd.select_less`, so
-they compile for float64 and, unchanged, for ``Lanes`` (one SIMD vector of
-32 trials: no call, no branch).  The PLL kernel went from 25.8 to 71 M
-filter-epochs/s (issue 14, twenty-second round; ``docs/performance.md``).
+discriminator.  Called from libm, one lane at a time, these would take ~42 of
+the PLL's ~45 ns per filter-epoch; the functions here are written once in
+``+ - * /``, ``abs``, :func:`scintrack.simd.lanes.floor` and
+:func:`scintrack.simd.lanes.select_less`, so they compile for float64 and,
+unchanged, for ``Lanes`` (one SIMD vector of 32 trials: no call, no branch);
+the PLL kernel runs ~2.8x faster with them (``docs/performance.md``).
 
 Results do not depend on the machine's libm or instruction set: no libm call,
 no fast-math, no FMA contraction (numba emits separate multiplies and adds),
