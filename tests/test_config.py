@@ -147,3 +147,12 @@ def test_yaml_reader_gives_what_the_safe_loader_gives():
                 yaml_load(text)
         else:
             assert yaml_load(text) == expected
+
+
+def test_experiment_names_are_rule_names(config):
+    """An experiment is the rule ``tracking_<name>``: a name that is not an identifier is refused in one line naming it."""
+    bad = copy.deepcopy(config)
+    bad["experiments"]["a.b"] = bad["experiments"]["case1_free"]
+    with pytest.raises(ConfigError, match=r"experiments.*a\.b"):
+        validate_config(bad, SCHEMA)
+

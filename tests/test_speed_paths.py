@@ -445,21 +445,6 @@ def test_scenario_result_is_its_blocks_written_read_and_merged(tmp_path, shards)
     assert one.attrs["config_sha256"] == two.attrs["config_sha256"] and one.attrs["title"] == two.attrs["title"]
 
 
-def test_single_and_multi_shard_constraints_split_the_experiments_exactly():
-    import re
-
-    from scintrack.pipeline import params
-
-    config = {"experiments": {"a": {"shards": 1}, "a.b": {"shards": 2}, "ab": {"shards": 1}, "c+": {"shards": 3}}}
-    single, multi = (params.experiment_names_regex(config, multi_shard=m) for m in (False, True))
-    for name, spec in config["experiments"].items():
-        assert bool(re.fullmatch(single, name)) == (spec["shards"] == 1), name
-        assert bool(re.fullmatch(multi, name)) == (spec["shards"] > 1), name
-    assert not re.fullmatch(single, "axb") and not re.fullmatch(multi, "c")  # names are escaped, not patterns
-    none = params.experiment_names_regex({"experiments": {"a": {"shards": 1}}}, multi_shard=True)
-    assert not any(re.fullmatch(none, s) for s in ("", "a", "(?!)"))
-
-
 def test_lut_lookups_are_xarrays_nearest_selection():
     """scintillation_ar / lookup / nearest_point pick what ``lut.sel(..., method="nearest")`` picks, value for value."""
     import xarray as xr

@@ -28,9 +28,11 @@ _SCRIPT = re.compile(r'^\s*"\.\./scripts/([\w.]+)"')
 
 
 def literal_rules(rules_dir: Path) -> list[tuple[str, str, str, str]]:
-    """(rule, file, first docstring line, script) of every rule written out in ``rules_dir/*.smk``."""
+    """(rule, file, first docstring line, script) of every rule written out in the Snakefile beside
+    ``rules_dir``'s parent folder (if any) and in ``rules_dir/*.smk``."""
     out = []
-    for path in sorted(rules_dir.glob("*.smk")):
+    snakefile = rules_dir.parent.parent / "Snakefile"
+    for path in [*([snakefile] if snakefile.is_file() else []), *sorted(rules_dir.glob("*.smk"))]:
         lines = path.read_text(encoding="utf-8").splitlines()
         for i, line in enumerate(lines):
             m = _RULE.match(line)
@@ -47,7 +49,8 @@ def literal_rules(rules_dir: Path) -> list[tuple[str, str, str, str]]:
                 s = _SCRIPT.match(nxt)
                 if s:
                     script = s.group(1)
-            out.append((m.group(2), f"workflow/rules/{path.name}", doc, f"workflow/scripts/{script}" if script else "(no script)"))
+            where = path.name if path == snakefile else f"workflow/rules/{path.name}"
+            out.append((m.group(2), where, doc, f"workflow/scripts/{script}" if script else "(no script)"))
     return out
 
 
