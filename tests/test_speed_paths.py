@@ -420,6 +420,7 @@ def test_scenario_result_is_its_blocks_written_read_and_merged(tmp_path, shards)
     from test_aekf_study import _tiny_lut
 
     from scintrack.config import load_config
+    from scintrack.batching import trial_blocks
     from scintrack.experiments.merge import merged_result
     from scintrack.experiments.shard_job import scenario_result, shard_result
     from scintrack.io import content_hash, open_dataset, write_netcdf
@@ -431,7 +432,7 @@ def test_scenario_result_is_its_blocks_written_read_and_merged(tmp_path, shards)
     lut = tmp_path / "lut.nc"
     write_netcdf(_tiny_lut(), lut)
     one = scenario_result(run, lut=str(lut), inputs=[str(lut)])
-    blocks = params.trial_blocks(3, shards)
+    blocks = trial_blocks(3, shards)
     assert sorted(t for b in blocks for t in b) == [0, 1, 2] and len(blocks) == shards
     files = []
     for k, trials in enumerate(blocks):

@@ -2,7 +2,7 @@
 
 An experiment runs as one job (rule ``tracking_<experiment>``).  Each of its
 scenarios runs its trials in ``shards`` contiguous blocks
-(:func:`scintrack.pipeline.params.trial_blocks`), one after the other; each
+(:func:`scintrack.batching.trial_blocks`), one after the other; each
 block goes through an uncompressed NetCDF file and back (so the merge sees
 exactly the types and values a file gives) and the blocks are merged by adding
 their per-epoch sums (:func:`.merge.merged_result`).  The number of blocks is
@@ -24,6 +24,7 @@ from typing import Any
 
 import xarray as xr
 
+from ..batching import trial_blocks
 from ..io import open_dataset, provenance, write_netcdf
 from .merge import merged_result
 from .runner import run_shard
@@ -63,8 +64,6 @@ def scenario_result(run: Mapping[str, Any], *, lut: str, trace: str | None = Non
     no value; an uncompressed file is written and read about 4x faster), and a block's arrays are freed
     before the next block runs, so the job holds one block's simulation at a time.
     """
-    from ..pipeline.params import trial_blocks
-
     blocks = trial_blocks(int(run["n_trials"]), int(run["shards"]))
     with tempfile.TemporaryDirectory(prefix="scintrack-shards-") as tmp:
         shards = []

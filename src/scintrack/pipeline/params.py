@@ -173,28 +173,11 @@ def floors(config: Mapping[str, Any], scenario: str) -> dict[str, Any]:
 
 
 def shard_trials(config: Mapping[str, Any], name: str, shard: int) -> list[int]:
-    """The trial indices of block ``shard`` of experiment ``name`` (:func:`trial_blocks`)."""
+    """The trial indices of block ``shard`` of experiment ``name`` (:func:`scintrack.batching.trial_blocks`)."""
+    from ..batching import trial_blocks
+
     spec = config["experiments"][name]
     return trial_blocks(int(spec["trials"]), int(spec["shards"]))[shard]
-
-
-def trial_blocks(n: int, k: int) -> list[list[int]]:
-    """The ``k`` contiguous blocks ("shards") of the trial indices ``0..n-1``.
-
-    The trials are dealt out as evenly as possible, in whole lane blocks of ``LANES`` (32) trials when that
-    takes fewer of them: the compiled trackers run a lane block's trials side by side and cost as much for
-    a block's last few trials as for 32, so 500 trials in 5 shards run as 96, 96, 128, 96 and 84 trials
-    (16 blocks) rather than 5 x 100 (20 blocks).  A trial's results are the same bits in any shard; the
-    merge adds the shards' per-epoch sums, so another split groups those additions differently (at the
-    rounding level: 1.5e-15 relative in ``sq_sum`` of ``cycle_slips``, no count, table or figure changes).
-    """
-    from ..simd import LANES  # light (no numba)
-
-    edges = [round(i * n / k) for i in range(k + 1)]
-    blocks = -(-n // LANES)
-    if blocks >= k and blocks < sum(-(-(hi - lo) // LANES) for lo, hi in zip(edges, edges[1:])):
-        edges = [min(round(i * blocks / k) * LANES, n) for i in range(k + 1)]
-    return [list(range(lo, hi)) for lo, hi in zip(edges, edges[1:])]
 
 
 # --- Sec. VI-E: real traces or the surrogate -------------------------------------
