@@ -419,8 +419,8 @@ def test_scenario_result_is_its_blocks_written_read_and_merged(tmp_path, shards)
     file and read back, then merged (what separate shard and merge jobs would give), bit for bit."""
     from test_aekf_study import _tiny_lut
 
-    from scintrack.config import load_config
     from scintrack.batching import trial_blocks
+    from scintrack.config import load_config
     from scintrack.experiments.merge import merged_result
     from scintrack.experiments.shard_job import scenario_result, shard_result
     from scintrack.io import content_hash, open_dataset, write_netcdf

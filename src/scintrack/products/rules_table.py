@@ -71,7 +71,13 @@ def rules_table(config: Mapping[str, Any], rules_dir: Path) -> str:
         outs = [paths.exp_result(exp, s) for s in spec["scenarios"]]
         rows.append(f"| `tracking_{exp}` | `config/config.yaml` (experiments.{exp}) | every tracker of the experiment on its "
                     f"scenarios ({spec['trials']} trials in {spec['shards']} block(s)) | `workflow/scripts/run_experiment.py` | {_cell(outs)} |")
-    for name, product in products().items():
+    from .registry import PRODUCT_MODULES
+
+    def declared_order(item):  # module order of PRODUCT_MODULES, then line: not the order modules happened to be imported in
+        product = item[1]
+        return PRODUCT_MODULES.index(product.module), product.function.__code__.co_firstlineno
+
+    for name, product in sorted(products().items(), key=declared_order):
         code = f"{product.module}.{product.function.__name__}"
         where = "src/" + product.module.replace(".", "/") + ".py"
         what = (product.function.__doc__ or "").strip().splitlines()[0] if product.function.__doc__ else product.kind
