@@ -82,9 +82,8 @@ DAG_TIME_CALLS = textwrap.dedent("""
     for scenario in P.susi_scenarios(config):
         paths.scenario_trace_path(config, scenario)
     paths.gps_dataset_path(config), paths.gps_iq_paths(config), P.gps_dataset(config), P.gps_iq(config)
-    for name, spec in config["experiments"].items():
-        for scenario in spec["scenarios"]:
-            RES.shard_mem_mb(config, name, scenario, 0), RES.shard_runtime(config, name, scenario, 0)
+    for name in config["experiments"]:
+        RES.experiment_mem_mb(config, name), RES.experiment_runtime(config, name)
     RES.zhao_channel_mem_mb(config), RES.zhao_channel_runtime(config)
     for product in products().values():
         product.outputs(config), product.inputs(config), product.kwargs(config)

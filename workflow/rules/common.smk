@@ -117,7 +117,7 @@ VV_DIAGNOSTICS = paths.VV_DIAGNOSTICS
 
 
 def experiment_runs(experiment):
-    """scenario -> everything that scenario's result depends on, for the one job of a single-shard experiment."""
+    """scenario -> everything that scenario's result depends on, for the one job of an experiment."""
     try:
         return {s: P.experiment(config, experiment, s) for s in config["experiments"][experiment]["scenarios"]}
     except KeyError as exc:

@@ -9,7 +9,8 @@ sm = snakemake  # noqa: F821
 runs = sm.params.runs
 log = runlog.setup(sm.log[0], f"tracking_{next(iter(runs.values()))['experiment']}")
 for (scenario, run), output in zip(runs.items(), sm.output, strict=True):
-    inputs = [sm.input.lut, *([sm.input[f"trace_{scenario}"]] if f"trace_{scenario}" in sm.input.keys() else [])]
-    result = scenario_result(run, lut=inputs[0], trace=inputs[1] if len(inputs) > 1 else None, inputs=inputs, progress=log.info)
+    trace = sm.input.get(f"trace_{scenario}")  # a trace scenario's trace (Susi 2014), else None
+    inputs = [sm.input.lut] if trace is None else [sm.input.lut, trace]
+    result = scenario_result(run, lut=sm.input.lut, trace=trace, inputs=inputs, progress=log.info)
     write_netcdf(result, output)
     log.info("%s/%s: %d trials in %d block(s)", run["experiment"], scenario, int(run["n_trials"]), int(run["shards"]))

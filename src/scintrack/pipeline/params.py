@@ -31,9 +31,6 @@ from ..data.synthetic_spec import csm_training_params
 from ..settings import EXPERIMENT_KEYS, FLOORS_KEYS
 from . import paths
 
-# tracking settings that define the scenario (truth, observations) and the metrics
-SCENARIO_TRACKING_KEYS = EXPERIMENT_KEYS
-
 
 def _sampling(config: Mapping[str, Any]) -> dict[str, Any]:
     return {"ts": float(config["sampling"]["ts"]), "nspa": int(config["sampling"]["nspa"]), "warmup_s": float(config["csm"]["warmup_s"])}
@@ -44,9 +41,9 @@ def tracker_specs(config: Mapping[str, Any], names) -> dict[str, Any]:
 
 
 def tracking_slice(config: Mapping[str, Any], names) -> dict[str, Any]:
-    """The ``tracking`` keys that the scenario, the metrics and the named trackers read."""
+    """The ``tracking`` keys that the scenario, the metrics (:data:`scintrack.settings.EXPERIMENT_KEYS`) and the named trackers read."""
     tracking = config["tracking"]
-    keys = set(SCENARIO_TRACKING_KEYS)
+    keys = set(EXPERIMENT_KEYS)
     for name in names:
         keys.update(_tracking_keys(config["trackers"][name]))
     return {key: tracking[key] for key in sorted(keys) if key in tracking}

@@ -62,7 +62,7 @@ def _cell(items) -> str:
 def rules_table(config: Mapping[str, Any], rules_dir: Path) -> str:
     """The Markdown table of every rule of the workflow with ``config`` (literal, experiment, figure and table rules)."""
     from ..pipeline import paths
-    from .registry import products
+    from .registry import PRODUCT_MODULES, products
 
     rows = ["| rule | declared in | what it makes | code | outputs |", "|---|---|---|---|---|"]
     for name, where, doc, script in literal_rules(rules_dir):
@@ -71,8 +71,6 @@ def rules_table(config: Mapping[str, Any], rules_dir: Path) -> str:
         outs = [paths.exp_result(exp, s) for s in spec["scenarios"]]
         rows.append(f"| `tracking_{exp}` | `config/config.yaml` (experiments.{exp}) | every tracker of the experiment on its "
                     f"scenarios ({spec['trials']} trials in {spec['shards']} block(s)) | `workflow/scripts/run_experiment.py` | {_cell(outs)} |")
-    from .registry import PRODUCT_MODULES
-
     def declared_order(item):  # module order of PRODUCT_MODULES, then line: not the order modules happened to be imported in
         product = item[1]
         return PRODUCT_MODULES.index(product.module), product.function.__code__.co_firstlineno
@@ -80,7 +78,7 @@ def rules_table(config: Mapping[str, Any], rules_dir: Path) -> str:
     for name, product in sorted(products().items(), key=declared_order):
         code = f"{product.module}.{product.function.__name__}"
         where = "src/" + product.module.replace(".", "/") + ".py"
-        what = (product.function.__doc__ or "").strip().splitlines()[0] if product.function.__doc__ else product.kind
+        what = (product.function.__doc__ or product.kind).strip().splitlines()[0]
         outs = [v for k, v in product.outputs(config).items() if k in ("png",) or k.endswith("_md")]
         rows.append(f"| `{name}` | `{where}` (@{product.kind}) | {what} | `{code}` | {_cell(outs)} |")
     return "\n".join(rows) + "\n"
