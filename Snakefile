@@ -58,6 +58,7 @@ rule all:
         FIGURE_FILES,
         TABLE_FILES,
         COMPARE_PAGE,
+        GALLERY,
         FIGURE_SUMS,
         TABLE_SUMS,
 

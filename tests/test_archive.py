@@ -10,7 +10,7 @@ import pytest
 
 from scintrack.__main__ import main as cli
 from scintrack.archive.build import ArchiveRefused, check_tree, version_of
-from scintrack.archive.compare import collect, render, summary
+from scintrack.archive.compare import DATA_LABELS, collect, headline, render, summary
 from scintrack.archive.metadata import ro_crate
 from scintrack.archive.tarball import MTIME, SUMS, sums_text, write_tarball
 from scintrack.archive.verify import verify
@@ -88,6 +88,26 @@ def test_compare_page_counts_cells(tmp_path):
     assert summary(df).startswith("3 cells with a paper value: 1 within our 95% interval, 1 more within 25%, 1 beyond")
     md, page = render(df)
     assert "table09_x" in md and page.startswith("<!DOCTYPE html>") and "Vil" in page
+
+
+def test_compare_page_counts_each_data_kind_apart_and_links_tables_to_figures(tmp_path):
+    folder = tmp_path / "vila_valls_2018"
+    folder.mkdir()
+    cell = {"column": "x", "paper": 1.0, "ci95_lo": 0.9, "ci95_hi": 1.1}
+    pd.DataFrame([{**cell, "row": "a", "reproduced": 1.0, "ratio_reproduced_over_paper": 1.0, "paper_within_ci95": True}]).to_csv(
+        folder / "table03_a_vs_paper.csv", index=False)
+    (folder / "table03_a_vs_paper.md").write_text("# Table III: paper vs reproduced\n")
+    pd.DataFrame([{**cell, "row": r, "reproduced": 5.0, "ratio_reproduced_over_paper": 5.0, "paper_within_ci95": False} for r in "bc"]).to_csv(
+        folder / "table06_b_surrogate_vs_paper.csv", index=False)
+    tables = {(folder / "table03_a_vs_paper.csv").as_posix(): {"table": "table03", "data": "synthetic CSM"},
+              (folder / "table06_b_surrogate_vs_paper.csv").as_posix(): {"table": "table06", "data": "surrogate"}}
+    df = collect(tables, tables)
+    md, page = render(df, {"table03": [("fig07", "Fig. 7")]})
+    lines = dict(headline(df))
+    assert lines[DATA_LABELS["synthetic CSM"]].startswith("1 cells with a paper value: 1 within")
+    assert lines[DATA_LABELS["surrogate"]].startswith("2 cells with a paper value: 0 within our 95% interval, 0 more within 25%, 2 beyond")
+    assert "Table III (table03_a)" in md and "id='table03'" in page and "../figures/index.html#fig07" in page
+    assert "our 95% interval" in page and "ratio_reproduced_over_paper" not in page
 
 
 def test_ro_crate_lists_every_file_with_its_hash():

@@ -50,7 +50,7 @@ def test_fresh_clone_plans_the_whole_dag_for_archive(tmp_path):
     config = load_config([clone / "config" / "config.yaml"])
     exps = config["experiments"].values()
     expected = {
-        "archive": 1, "compare": 1, "figure_checksums": 1, "table_checksums": 1, "dataset_manifest": 1,
+        "archive": 1, "compare": 1, "gallery": 1, "figure_checksums": 1, "table_checksums": 1, "dataset_manifest": 1,
         "csm_training_set": len(config["ar_training"]["s4"]), "ar_fit": len(config["ar_training"]["s4"]), "ar_lut": 1, "ar_diagnostics": 1,
         "surrogate_event": len(config["real_traces"]["events"]), "trace_diagnostics": 1,
         **{r: len(config["real_traces"]["events"]) for r in ("trace_ar_models", "trace_tracking")},

@@ -38,7 +38,7 @@ pytestmark = pytest.mark.pipeline
 
 ALLOW_DIRTY = REPO / "config" / "allow-dirty.yaml"
 #: rules that only collect or check other outputs (covered by their own tests)
-AGGREGATES = {"all", "compare", "archive", "verify", "figure_checksums", "table_checksums", "dataset_manifest"}
+AGGREGATES = {"all", "compare", "gallery", "archive", "verify", "figure_checksums", "table_checksums", "dataset_manifest"}
 PRODUCTS_BUILT = ("fig01", "table01")
 #: the experiment rules built (every experiment is the same rule with other params): one scenario in one block,
 #: and three scenarios in blocks merged exactly

@@ -52,12 +52,12 @@ def test_tracker_parameter_reruns_only_its_experiments(smoke_run, tmp_path, smok
 
 def test_scenario_duration_reruns_only_that_scenario(smoke_run, tmp_path):
     jobs = dry_run_with(smoke_run, tmp_path, {"scenarios": {"free": {"duration_s": 5.0}}})
-    assert jobs == {"tracking_case1_free": 1, "fig06": 1, "figure_checksums": 1, "all": 1}  # case1_free: one shard
+    assert jobs == {"tracking_case1_free": 1, "fig06": 1, "figure_checksums": 1, "gallery": 1, "all": 1}  # case1_free: one shard
 
 
 def test_figure_option_reruns_only_its_figures(smoke_run, tmp_path):
     jobs = dry_run_with(smoke_run, tmp_path, {"figures": {"vila_valls_2018": {"welch_nperseg": 128}}})
-    assert jobs == {"ar_diagnostics": 1, "fig01": 1, "fig02": 1, "fig03": 1, "fig04": 1, "figure_checksums": 1, "all": 1}
+    assert jobs == {"ar_diagnostics": 1, "fig01": 1, "fig02": 1, "fig03": 1, "fig04": 1, "figure_checksums": 1, "gallery": 1, "all": 1}
 
 
 def test_zhao_trial_counts_rerun_only_what_reads_them(smoke_run, tmp_path, smoke_config):
@@ -66,7 +66,10 @@ def test_zhao_trial_counts_rerun_only_what_reads_them(smoke_run, tmp_path, smoke
     rc = smoke_config["zhao_receiver"]
     sweep = dry_run_with(smoke_run, tmp_path, {"zhao_receiver": {"cn0_sweep": {**rc["cn0_sweep"], "trials": int(rc["cn0_sweep"]["trials"]) + 1}}})
     assert sweep == {"zhao_cn0_sweep_point": len(rc["cn0_sweep"]["cn0_dbhz"]), "zhao_sweep": 1, "zhao_table_cn0_sweep": 1,
-                     "figure_checksums": 1, "table_checksums": 1, "all": 1}
+                     "figure_checksums": 1, "table_checksums": 1, "gallery": 1, "all": 1}
+    one_more = [*rc["cn0_sweep"]["cn0_dbhz"], 33.0]  # a new point runs that point only
+    added = dry_run_with(smoke_run, tmp_path, {"zhao_receiver": {"cn0_sweep": {**rc["cn0_sweep"], "cn0_dbhz": one_more}}})
+    assert added["zhao_cn0_sweep_point"] == 1 and added["zhao_sweep"] == 1
     channels = dry_run_with(smoke_run, tmp_path, {"zhao_receiver": {"trials": int(rc["trials"]) + 1}})
     assert channels["zhao_channel"] == len(smoke_config["gps_jamming"]["prns"]) and channels["zhao_receiver"] == 1
     assert not {"zhao_cn0_sweep_point", "zhao_bit_prediction", "zhao_sweep", "zhao_table_cn0_sweep"} & set(channels)
@@ -117,4 +120,4 @@ def test_comment_in_a_source_file_reruns_nothing_and_code_change_reruns_its_rule
     ar.write_text(ar.read_text() + "\nUNUSED_FOR_THIS_TEST = 1\n")
     jobs = dry_run_copy(code_copy, smoke_run)
     assert jobs.get("trace_ar_models") == 3 and jobs.get("ar_fit") == 3  # both import models/ar.py
-    assert "fig10" not in jobs  # draws the trace itself: no AR code involved
+    assert "zhao_fig05" not in jobs  # draws the IQ spectrum and C/N0: no AR code involved

@@ -165,13 +165,64 @@ def test_ranking_ranks_by_rmse_and_keeps_the_run_with_more_trials():
     high = long[long.scenario == "susi_high_latitude"].set_index("tracker")
     assert high.loc["zhao_mm", "near_uniform"] and not high.loc["pll", "near_uniform"] and high.loc["zhao_mm", "rank"] == 5
     summary = ranking.ranking_summary(long).set_index("tracker")
-    assert summary.loc["kf", "mean_rank"] == 1 and summary.loc["kf", "scenarios"] == 1
-    assert summary.loc["pll", "mean_rank"] == pytest.approx((2 + 4) / 2) and summary.loc["pll", "scenarios"] == 2
+    assert summary.loc["kf", "mean_rank_10ms"] == 1 and summary.loc["kf", "scenarios_in_mean_10ms"] == 1
+    assert np.isnan(summary.loc["kf", "mean_rank_1ms"]) and summary.loc["pll", "scenarios"] == 2
     assert summary.loc["pll", "mean_rank_1ms"] == 2 and summary.loc["pll", "mean_rank_10ms"] == 4
-    assert list(ranking.ranking_summary(long)["mean_rank"]) == sorted(summary["mean_rank"])
+    assert "mean_rank" not in summary.columns  # no mean over both integration times: no tracker set covers both
+    assert list(ranking.ranking_summary(long)["mean_rank_1ms"].dropna()) == sorted(summary["mean_rank_1ms"].dropna())
+    assert csm.loc["zhao_mm", "outside_design"] and not high.loc["zhao_mm", "outside_design"]
     out = ranking.table_ranking(*res)
     note = out["table_ranking"][2]
     assert "Vila-Valls" in note and "jitter" in note and "10 (1 scenario)" in note and "SURROGATE" in out["table_ranking"][1]
+
+
+def test_ranking_mean_rank_counts_only_informative_common_scenarios():
+    """A scenario where every tracker is at the no-lock level, or one a tracker of its Ts did not run, is ranked but in no mean."""
+    res = _ranking_results()
+    for r in res[:2]:  # the high-latitude scenario: every tracker at ~pi/sqrt(3) on theta_d, the total phase still informative
+        r["steady_rmse"].loc[{"kind": "wrapped"}] = 1.75
+    csm = dict(trace=None, ts=0.01)
+    res.append(result("cycle_slips", "slips_case1", ["pll", "kf", "akf"], rmse={"pll": 0.1, "kf": 0.2, "akf": 0.3}, trials=6, **csm))
+    long = ranking.ranking_long(res)
+    first = long.drop_duplicates("scenario").set_index("scenario")
+    assert not first.loc["susi_high_latitude", "informative"] and first.loc["susi_high_latitude", "informative_total"]
+    assert not first.loc["susi_high_latitude", "in_mean_rank"] and first.loc["susi_high_latitude", "in_mean_rank_total"]
+    assert first.loc["s4_0.9_tau0_0.1", "in_mean_rank"] and not first.loc["slips_case1", "in_mean_rank"]  # zhao_mm, susi_pll not run there
+    assert ranking.mean_rank_sets(long, "theta_d") == {1.0: [], 10.0: ["s4_0.9_tau0_0.1"]}
+    summary = ranking.ranking_summary(long).set_index("tracker")
+    assert np.isnan(summary.loc["pll", "mean_rank_1ms"]) and summary.loc["pll", "mean_rank_10ms"] == 4  # slips_case1's rank 1 not in it
+    assert summary.loc["pll", "times_rank_1"] == 1 and summary.loc["susi_akf", "times_rank_1"] == 0  # uninformative rank 1 not counted
+    assert summary.loc["pll", "scenarios_in_mean_total_1ms"] == 1
+    note = ranking.table_ranking(*res)["table_ranking"][2]
+    assert "10 ms over 1 (s4_0.9_tau0_0.1)" in note and "outside_design: zhao_mm" in note
+
+
+def test_scenario_label():
+    spec = {"duration_s": 60.0, "segments": [{"start_s": 0.0, "s4": 0.9, "tau0": 0.1}]}
+    assert ranking.scenario_label("s4_0.9_tau0_0.1", spec, ts_ms=1) == "S4 0.9, tau0 0.1 s, 1 ms"
+    assert ranking.scenario_label("slips_case3", {**spec, "duration_s": 500.0}, ts_ms=10, cn0_dbhz=30) == "S4 0.9, tau0 0.1 s, 10 ms, 30 dB-Hz, 500 s"
+    trace = {"duration_s": 300.0, "trace": {"name": "high_latitude"}, "segments": []}
+    assert ranking.scenario_label("susi_high_latitude", trace, ts_ms=1, data="SURROGATE trace", sep="\n") == "high-latitude trace\nSURROGATE\n1 ms"
+    assert ranking.scenario_label("x", None, ts_ms=10) == "x, 10 ms"
+
+
+def test_ranking_figure_passes_the_layout_check_and_has_a_verdict():
+    from scintrack.products import get
+    from scintrack.products.figure_check import check_figure
+    from scintrack.products.figures import ranking as rfig
+
+    res = _ranking_results()
+    kw = {"scenarios": {"s4_0.9_tau0_0.1": {"duration_s": 60.0, "segments": [{"s4": 0.9, "tau0": 0.1}]}},
+          "trackers": {"zhao_mm": {"type": "mm_kf"}}}
+    fig = rfig.fig_ranking(*res, **kw)
+    assert check_figure(fig) == []
+    ticks = " ".join(t.get_text() for ax in fig.axes for t in ax.get_xticklabels())
+    assert "S$_4$ 0.9, $\\tau_0$ 0.1 s" in ticks and "s4_0.9_tau0_0.1" not in ticks
+    assert any("\u2020" in t.get_text() for ax in fig.axes for t in ax.texts)  # the MM filter on CSM dynamics
+    product = get("fig_ranking")
+    assert product.number is None and product.tables == ("table_ranking",)
+    verdict = product.verdict(*res, **kw)
+    assert verdict.status == "no paper figure" and "10 ms over 1 scenario(s)" in verdict.text
 
 
 def test_surrogate_switches():
@@ -230,3 +281,68 @@ def test_sakf_monitor_says_when_its_T_median_covers_only_the_first_shard():
     assert "on-line T: median over trials" in texts(res) and "first" not in texts(res)
     res["T_mean"].attrs["median_trials"] = 2
     assert "on-line T: median over the first 2 of 4 trials" in texts(res)
+
+
+def _indices(scenario="susi_high_latitude"):
+    w = np.array([30.0, 90.0, 150.0])
+    return xr.Dataset({"s4_true": ("window", [0.1, 0.11, 0.1]), "phi60_true": ("window", [1.0, 1.2, 0.9]),
+                       "s4_receiver": ("window", [0.1, 0.11, 0.1]), "phi60_receiver": ("window", [3.0, 1.1, 0.9]),
+                       "phi3_true": ("grid", np.full(60, 0.9)), "T_true": ("tp_time", [1e-3, 2e-3]), "p_true": ("tp_time", [2.0, 2.5])},
+                      coords={"window": w, "grid": np.arange(60) * 0.1, "tp_time": [3.0, 4.0]},
+                      attrs={"scenario": scenario, "window_s": 60.0, "phi3_window_s": 3.0, "detrend_hz": 0.1, "trial": 0, "cn0_dbhz": 45.0,
+                             "ts": 0.001, "monitor_tracker": "susi_pll", "trace_source": "surrogate"})
+
+
+def test_susi_figures_pass_the_layout_check_and_have_honest_verdicts():
+    """Every Susi figure passes the layout check and declares its paper figure; on surrogate data a verdict is never
+    "reproduced" and says so."""
+    from scintrack.products import get
+    from scintrack.products.figure_check import check_figure
+
+    rng = np.random.default_rng(4)
+    res = chapter(_jit(rng, 0.3), _jit(rng, 0.2), _jit(rng, 0.1))
+    eq = chapter(_jit(rng, 0.3), _jit(rng, 0.2), _jit(rng, 0.1), scenario="susi_equatorial", trace="equatorial")
+    for ds in (res, eq):
+        ds.attrs["trace_source"] = "surrogate"
+    cases = {"susi_fig03": ([_indices()], "Fig. 3"), "susi_fig06": ([_indices("susi_equatorial")], "Fig. 6"),
+             "susi_fig04": ([res], "Fig. 4"), "susi_fig05": ([res], "Fig. 5"), "susi_fig08": ([eq], "Fig. 8"), "susi_fig07": ([eq], "Fig. 7"),
+             "susi_sakf_monitor": ([res, _indices()], None)}
+    for name, (args, number) in cases.items():
+        product = get(name)
+        fig = product.function(*args)
+        assert check_figure(fig) == [], name
+        assert product.number == number and product.claim
+        verdict = product.verdict(*args)
+        assert verdict.status != "reproduced" and "surrogate data" in verdict.text, (name, verdict)
+        assert any(ch.isdigit() for ch in verdict.text)
+    # the SAKF has the lowest 1-ms jitter here: Fig. 4's claim agrees, which surrogate data cannot confirm
+    assert get("susi_fig04").verdict(res).status == "not reproduced"
+    assert get("susi_sakf_monitor").verdict(res, _indices()).status == "no paper figure"
+
+
+def test_receiver_phi60_hides_the_windows_of_the_filter_transient():
+    from scintrack.products.figures import susi_2014 as figs
+
+    settle = figs.filter_settle_s(0.1)
+    assert 10.0 < settle < 60.0  # a 6th-order 0.1-Hz high-pass settles within the first 60-s window
+    assert list(figs._blanked_windows(_indices())) == [True, False, False]
+    fig = figs.susi_fig03(_indices())
+    drawn = [ln.get_ydata() for ax in fig.axes for ln in ax.get_lines() if len(ln.get_ydata()) == 3]
+    assert not any(np.nanmax(np.asarray(y, float)) >= 3.0 for y in drawn)  # the 3.0-rad transient window is not drawn
+
+
+def test_sakf_way_truth_detrends_like_the_sakf_and_largest_step_ignores_followed_steps():
+    from scintrack.products.figures import susi_2014 as figs
+
+    ts, n = 0.001, 20_000
+    t = np.arange(n) * ts
+    quad = 3.0 + 2.0 * t - 0.7 * t**2  # a quadratic is what the SAKF removes: its Phi3 is 0
+    trace = xr.Dataset({"amplitude": (("band", "time"), np.ones((1, n))), "phase": (("band", "time"), quad[None, :])},
+                       coords={"band": ["L1"], "time": t})
+    truth = figs.sakf_way_truth(trace, ["x", 0.0, n * ts, ts], 3.0, (0.5, 5.0))
+    assert np.nanmax(truth["phi3"]) < 1e-9
+    tt = np.arange(1000) * 0.01
+    est = np.where(tt > 5.0, 1.0, 0.0) + np.where(tt > 7.0, 2.0, 0.0)
+    tru = np.where(tt > 7.0, 2.0, 0.0)  # the 2-Hz step at 7 s is followed, the 1-Hz step at 5 s is the loop's own
+    when, size = figs.largest_step(tt, est, tru, 0.0)
+    assert abs(when - 5.0) < 0.2 and size == 1.0

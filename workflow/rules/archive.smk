@@ -3,13 +3,15 @@
 
 
 rule compare:
-    """Every reproduced table cell beside the paper's value, with a summary line."""
+    """Every reproduced table cell beside the paper's value, with a verdict per data kind and per table."""
     input:
         TWINS,
     output:
         md=COMPARE_PAGE[0],
         html=report(COMPARE_PAGE[1], caption="../report/compare.rst", category="Summary"),
     params:
+        tables=TWIN_TABLES,
+        figures=FIGURES_OF_TABLE,
         code=code("compare.py"),
     log:
         "logs/archive/compare.log",
@@ -26,6 +28,7 @@ rule archive:
         figures=FIGURE_FILES,
         tables=TABLE_FILES,
         compare=COMPARE_PAGE,
+        gallery=GALLERY,
         manifest=DATASET_MANIFEST,
         results=ALL_RESULTS,
         lock=repo_path("environment.lock"),

@@ -143,6 +143,7 @@ TABLES = products("table")
 FIGURE_FILES = [f for p in FIGURES.values() for f in p.outputs(config).values()]
 TABLE_FILES = [f for p in TABLES.values() for f in p.outputs(config).values()]
 COMPARE_PAGE = ["tables/compare.md", "tables/compare.html"]
+GALLERY = ["figures/index.md", "figures/index.html"]
 FIGURE_SUMS = "figures/SHA256SUMS"
 TABLE_SUMS = "tables/SHA256SUMS"
 
@@ -155,10 +156,13 @@ def feeds_compare(key):
 
 
 TWINS = [f for p in TABLES.values() for k, f in p.outputs(config).items() if feeds_compare(k)]
+#: twin path -> its table rule and data kind; table rule -> [(figure rule, label)] drawn from it (comparison page)
+TWIN_TABLES = {f: {"table": n, "data": p.data_kind(config)} for n, p in TABLES.items() for k, f in p.outputs(config).items() if feeds_compare(k)}
+FIGURES_OF_TABLE = {t: [[n, f"{PAPERS[p.paper]} {p.number or n}"] for n, p in FIGURES.items() if t in p.tables] for t in TABLES}
 
 
 def report_section(product):
-    return product.section + (" (SURROGATE data)" if product.suffix(config) else "")
+    return product.section + (" (SURROGATE data)" if product.is_surrogate(config) else "")
 
 
 # --- publication bundle

@@ -6,8 +6,8 @@ from scintrack.io import write_text
 
 sm = snakemake  # noqa: F821
 log = runlog.setup(sm.log[0], "compare")
-df = collect(sm.input)
-md, page = render(df)
+df = collect(sm.input, sm.params.tables)
+md, page = render(df, {t: [tuple(f) for f in figs] for t, figs in sm.params.figures.items()})
 write_text(md, sm.output.md)
 write_text(page, sm.output.html)
 log.info("%s", summary(df))

@@ -20,7 +20,7 @@ try:
     check_results_config(cfg, sm.input.results)
 except ArchiveRefused as exc:
     raise InputError(str(exc)) from None
-outputs = [*sm.input.figures, *sm.input.tables, *sm.input.compare, sm.input.manifest, sm.input.figure_sums, sm.input.table_sums]
+outputs = [*sm.input.figures, *sm.input.tables, *sm.input.compare, *sm.input.gallery, sm.input.manifest, sm.input.figure_sums, sm.input.table_sums]
 extra = {"environment.lock": sm.input.lock, "registry/registry.yaml": sm.input.registry}
 members, manifest = collect_members(outputs=outputs, results=sm.input.results, extra=extra, max_result_mb=float(sm.params.max_result_mb))
 timings = benchmark_timings(sorted(Path("results/benchmarks").rglob("*.tsv")))

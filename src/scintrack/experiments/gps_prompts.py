@@ -38,6 +38,7 @@ from ..signals.gps import geometry
 from ..signals.gps.correlator import NoiseStream, gains
 from ..signals.gps.ephemeris import Ephemeris
 from ..signals.gps.orbit import C_LIGHT
+from .lock_detector import lock_state, loss_of_lock_events  # noqa: F401 (the receiver's detector, used through this module)
 
 CODE_PERIOD_S = 1e-3
 BIT_MS = 20
@@ -111,18 +112,3 @@ def wrap(x: np.ndarray, period: float = 2 * np.pi) -> np.ndarray:
     return -((period / 2 - x) % period - period / 2)
 
 
-def lock_state(error: np.ndarray, ts: float, threshold: float, window_s: float) -> np.ndarray:
-    """In lock (True) while the running mean of |wrapped error| over ``window_s`` stays at or below ``threshold``."""
-    n = max(1, int(round(window_s / ts)))
-    a = np.abs(error)
-    c = np.cumsum(np.concatenate([np.zeros((*a.shape[:-1], 1)), a], axis=-1), axis=-1)
-    mean = np.empty_like(a)
-    idx = np.arange(a.shape[-1])
-    lo = np.maximum(idx - n + 1, 0)
-    mean[...] = (c[..., idx + 1] - c[..., lo]) / (idx + 1 - lo)
-    return mean <= threshold
-
-
-def loss_of_lock_events(locked: np.ndarray) -> np.ndarray:
-    """Number of in-lock -> out-of-lock transitions per row."""
-    return np.sum(locked[..., :-1] & ~locked[..., 1:], axis=-1)

@@ -278,9 +278,14 @@ def zhao_receiver(config: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def zhao_sweep(config: Mapping[str, Any]) -> dict[str, Any]:
-    """One point of the jammed-C/N0 sweep: :func:`zhao_receiver` with ``cn0_sweep`` and without ``trials``
-    (a sweep point runs ``cn0_sweep.trials`` trials; ``receiver.trials`` is the channels' count)."""
-    return _zhao(config, ("trials",))
+    """One point of the jammed-C/N0 sweep: :func:`zhao_receiver` with ``cn0_sweep.trials`` and without ``trials``
+    (a sweep point runs ``cn0_sweep.trials`` trials; ``receiver.trials`` is the channels' count).
+
+    The list of sweep points (``cn0_sweep.cn0_dbhz``) is not a value of any one point (its C/N0 is its
+    wildcard): adding a point runs that point only."""
+    out = _zhao(config, ("trials",))
+    out["receiver"]["cn0_sweep"] = {"trials": int(config["zhao_receiver"]["cn0_sweep"]["trials"])}
+    return out
 
 
 def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:

@@ -16,7 +16,18 @@ declared order and return ``{stem: (DataFrame, title, note)}``.
 Sec. VI-E outputs (``trace=True``) get ``_surrogate`` appended to every file
 stem when the traces are the synthetic surrogate; a product that reads other
 traces (Susi 2014's) says when it does with ``surrogate=`` (a function of
-the config), with the same effect.
+the config), with the same effect.  Figures drawn from the synthetic
+SKYDEL-like dataset (Zhao et al.'s paper) get ``_synthetic``.
+
+A figure also declares what the gallery (:mod:`scintrack.products.gallery`)
+shows beside it: the paper's figure number (``number``; None for a figure the
+paper does not have), the paper's caption or claim in one line (``claim``),
+the tables whose cells it draws (``tables``, linked on the comparison page)
+and a ``verdict`` function: called with the same opened inputs and keyword
+arguments as the figure function, it returns a :class:`Verdict`, the status
+and one line with the number it rests on.  The figure rule writes it, with
+the data kind and the layout check's problems, to ``<stem>.json`` beside the
+figure.
 """
 
 from __future__ import annotations
@@ -51,6 +62,24 @@ PAPERS = {
 
 Config = Mapping[str, Any]
 
+#: what a figure's verdict can say
+VERDICT_STATUSES = ("reproduced", "differs", "not reproduced", "no paper figure")
+
+#: the data a product is drawn from (:data:`scintrack.products.figures.conventions.DATA_WORDS`)
+DATA_KINDS = ("synthetic CSM", "surrogate", "synthetic SKYDEL-like", "real", "mixed")
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """A figure's verdict: ``status`` (one of :data:`VERDICT_STATUSES`) and one line saying it with its number."""
+
+    status: str
+    text: str
+
+    def __post_init__(self):
+        if self.status not in VERDICT_STATUSES:
+            raise ValueError(f"verdict status {self.status!r} is not one of {', '.join(VERDICT_STATUSES)}")
+
 
 def _no_kwargs(config: Config) -> dict[str, Any]:
     return {}
@@ -68,17 +97,36 @@ class Product:
     section: str
     trace: bool = False
     surrogate: Callable[[Config], bool] | None = field(default=None, repr=False)
+    number: str | None = None
+    claim: str = ""
+    tables: tuple[str, ...] = ()
+    verdict: Callable[..., Verdict] | None = field(default=None, repr=False)
 
     @property
     def module(self) -> str:
         return self.function.__module__
 
-    def suffix(self, config: Config) -> str:
+    def is_surrogate(self, config: Config) -> bool:
         from ..pipeline.paths import trace_source
 
         if self.surrogate is not None:
-            return "_surrogate" if self.surrogate(config) else ""
-        return "_surrogate" if self.trace and trace_source(config) == "surrogate" else ""
+            return bool(self.surrogate(config))
+        return self.trace and trace_source(config) == "surrogate"
+
+    def data_kind(self, config: Config) -> str:
+        """What the product is drawn from (one of :data:`DATA_KINDS`)."""
+        if self.paper == "cross_paper":
+            return "mixed"
+        if self.paper == "zhao_jamming":
+            return "synthetic SKYDEL-like"
+        if self.trace or self.surrogate is not None:
+            return "surrogate" if self.is_surrogate(config) else "real"
+        return "synthetic CSM"
+
+    def suffix(self, config: Config) -> str:
+        if self.is_surrogate(config):
+            return "_surrogate"
+        return "_synthetic" if self.kind == "figure" and self.data_kind(config) == "synthetic SKYDEL-like" else ""
 
     def outputs(self, config: Config) -> dict[str, str]:
         """Output key -> path: ``pdf``/``png`` for a figure, ``<stem>_csv``/``<stem>_md`` for a table."""
@@ -86,7 +134,7 @@ class Product:
         sfx = self.suffix(config)
         if self.kind == "figure":
             (stem,) = self.stems
-            return {ext: f"{folder}/{stem}{sfx}.{ext}" for ext in ("pdf", "png")}
+            return {ext: f"{folder}/{stem}{sfx}.{ext}" for ext in ("pdf", "png", "json")}
         return {f"{stem}_{ext}": f"{folder}/{stem}{sfx}.{ext}" for stem in self.stems for ext in ("csv", "md")}
 
 
@@ -101,11 +149,13 @@ def _register(product: Product) -> None:
 
 
 def figure(name: str, stem: str, *, paper: str, section: str, inputs: Callable[[Config], dict[str, str]],
-           kwargs: Callable[[Config], dict[str, Any]] = _no_kwargs, trace: bool = False, surrogate: Callable[[Config], bool] | None = None):
+           kwargs: Callable[[Config], dict[str, Any]] = _no_kwargs, trace: bool = False, surrogate: Callable[[Config], bool] | None = None,
+           number: str | None = None, claim: str = "", tables: tuple[str, ...] = (), verdict: Callable[..., Verdict] | None = None):
     """Register a figure function (decorator)."""
 
     def decorate(func):
-        _register(Product(name, "figure", func, (stem,), inputs, kwargs, paper, section, trace, surrogate))
+        _register(Product(name, "figure", func, (stem,), inputs, kwargs, paper, section, trace, surrogate, number, claim,
+                          tuple(tables), verdict))
         return func
 
     return decorate

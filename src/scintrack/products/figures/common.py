@@ -86,34 +86,45 @@ def symlog_axis(ax, linthresh: float) -> None:
     ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
 
 
-def add_footer(fig, text: str, fontsize: float = 5.5) -> None:
+def room_below(fig, extra_in: float) -> float:
+    """Make ``fig`` ``extra_in`` inches taller at the bottom, every axes, figure text (the suptitle is one)
+    and figure legend keeping its place: the room below is free for a note, a caption or a legend.
+    Returns the new height [in]."""
+    width_in, height_in = fig.get_size_inches()
+    total = height_in + extra_in
+
+    def lift(y: float) -> float:
+        return (y * height_in + extra_in) / total
+
+    for ax in fig.axes:
+        pos = ax.get_position()
+        ax.set_position([pos.x0, lift(pos.y0), pos.width, pos.height * height_in / total])
+    for t in fig.texts:
+        if t.get_transform() == fig.transFigure:
+            x, y = t.get_position()
+            t.set_position((x, lift(y)))
+    to_fraction = fig.transFigure.inverted()
+    for legend in fig.legends:
+        box = legend.get_bbox_to_anchor().transformed(to_fraction)
+        legend.set_bbox_to_anchor((box.x0, lift(box.y0), box.width, box.height * height_in / total), transform=fig.transFigure)
+    fig.set_size_inches(width_in, total)
+    return total
+
+
+def add_footer(fig, text: str, fontsize: float = 7.0) -> None:
     """Small text below everything else in ``fig`` (nothing for ""): the numerical-guard note of the results a
     figure is drawn from (:func:`scintrack.experiments.guards.divergence_note`), added to every figure by
     the render rule, so no figure drawn from a diverged run or from nan-aware S4 means can hide it.
 
-    The note is wrapped to the figure's width and the figure is made taller by the note's height, with
-    every axes and figure text moved up by that much, so it never covers an axis label.
+    The note is wrapped to the figure's width and put in room made below everything (:func:`room_below`),
+    so it never covers an axis label or a legend.
     """
     if not text:
         return
     import textwrap
 
-    width_in, height_in = fig.get_size_inches()
-    chars = max(int(width_in * 72 / (0.55 * fontsize)) - 2, 40)  # average glyph ~0.55 em
+    width_in = fig.get_size_inches()[0]
+    chars = max(int(width_in * 72 / (0.6 * fontsize)) - 2, 40)  # average glyph ~0.55 em, with a margin
     lines = textwrap.wrap(text, chars)
-    extra = (len(lines) * 1.25 * fontsize + 6) / 72  # inches
-    total = height_in + extra
-
-    def lift(y: float) -> float:
-        return (y * height_in + extra) / total
-
-    for ax in fig.axes:
-        pos = ax.get_position()
-        ax.set_position([pos.x0, lift(pos.y0), pos.width, pos.height * height_in / total])
-    texts = list(fig.texts) + ([fig._suptitle] if getattr(fig, "_suptitle", None) is not None else [])
-    for t in {id(t): t for t in texts}.values():
-        if t.get_transform() == fig.transFigure:
-            x, y = t.get_position()
-            t.set_position((x, lift(y)))
-    fig.set_size_inches(width_in, total)
+    total = room_below(fig, (len(lines) * 1.25 * fontsize + 6) / 72)
     fig.text(0.005, 3 / 72 / total, "\n".join(lines), fontsize=fontsize, ha="left", va="bottom", color="tab:red")

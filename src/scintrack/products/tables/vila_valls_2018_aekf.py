@@ -454,8 +454,9 @@ def bias_note(fixes: Sequence[xr.Dataset]) -> str:
         "bias = estimate - truth. M2M4: the AEKF-AR's thermal-noise correction from the prompts' moments (assumes a constant amplitude); "
         "reference: noise power from a signal-free correlator. Median columns: each trial's median over the steady-state window, then the "
         "median over trials (robust); mean columns: the trial mean per epoch averaged over the window, which epochs where the M2M4 noise "
-        "estimate exceeds the window's mean intensity dominate (the corrected signal power is floored at 1e-12 and the estimate explodes; "
-        "the estimator's 'not estimable' state is issue 15). " + NOTHING_TUNED
+        "estimate approaches the window's mean intensity dominate (the corrected signal power is small and the estimate large; where it is "
+        "at most 0.1 of the noise power, or the estimate reaches S4 >= 2, the estimate is 'not estimable' (NaN) and left out of both "
+        "statistics). " + NOTHING_TUNED
     )
 
 
