@@ -26,7 +26,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from . import __version__
+from . import __version__, jobcode
 from .atomic import atomic_bytes, atomic_write
 from .errors import InputError, one_line
 
@@ -117,9 +117,11 @@ def provenance(
     ``config`` is the set of config values the result depends on (its rule's
     params, :mod:`scintrack.pipeline.params`), never the whole config: its
     hash ``config_sha256`` is what ``archive``/``verify`` recompute from a
-    config to check that the result belongs to it.
+    config to check that the result belongs to it.  In a workflow job the git
+    state is the one at the job's start and ``code_version`` is the code that
+    ran (:mod:`scintrack.jobcode`).
     """
-    state = git_state(Path(__file__).resolve().parent)
+    state = jobcode.ran() or git_state(Path(__file__).resolve().parent)
     attrs: dict[str, Any] = {
         "scintrack_version": __version__,
         "git_commit": state["git_commit"],
@@ -127,6 +129,8 @@ def provenance(
         "python_version": platform.python_version(),
         "input_sha256": canonical_json({str(p): sha256_file(p) for p in inputs}),
     }
+    if "code_version" in state:  # in a workflow job: the code that ran, checked against the plan
+        attrs["code_version"] = state["code_version"]
     if config is not None:
         attrs["config_sha256"] = hash_object(config)
     if seed is not None:
@@ -160,12 +164,14 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = Tr
                 raise
             raise OSError(f"the NetCDF library could not write it: {exc}") from None
 
+    jobcode.confirm()  # in a job: only output of the planned code
     atomic_write(path, write)
     return digest
 
 
 def write_text(text: str | bytes, path: str | os.PathLike) -> None:
-    """Write text or bytes atomically (temporary file, then rename)."""
+    """Write text or bytes atomically (temporary file, then rename), in a job only if its code is still the planned code."""
+    jobcode.confirm()
     atomic_bytes(path, text)
 
 

@@ -11,7 +11,7 @@ from snakemake.utils import update_config, validate
 
 sys.path.insert(0, str(Path(workflow.basedir) / "src"))
 
-from scintrack.codeversion import code_version
+from scintrack.jobcode import planned as planned_code
 from scintrack.config import SOURCE, check_consistency, format_validation_error, load_config, locate, typed_overrides
 from scintrack.data.registry import expected_sha256
 from scintrack.errors import PREFIX, ConfigError, InputError, one_line
@@ -65,8 +65,9 @@ OUTPUT_ROOTS = ["data", "results", "figures", "tables", "archive", "logs"]  # wh
 
 def code(script, *modules):
     """Code version of a script: the normalised source (AST, no comments or
-    docstrings) of the script and of every scintrack module it imports."""
-    return code_version([SCRIPTS / script, *modules])
+    docstrings) of the script and of every scintrack module it imports, with
+    what it covers; the job checks it against the code it runs (scintrack.jobcode)."""
+    return planned_code(SCRIPTS, script, *modules)
 
 
 # --- Sec. VI-E: real traces, or the synthetic surrogate when none are configured

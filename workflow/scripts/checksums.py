@@ -5,6 +5,6 @@ from scintrack import runlog
 from scintrack.checksums import write_checksums
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], sm.rule)
+log = runlog.job(sm, sm.rule)
 path = write_checksums(sm.output[0], list(sm.input))
 log.info("%s lists %d files", path, len(sm.input))

@@ -5,7 +5,7 @@ from scintrack.archive.compare import collect, render, summary
 from scintrack.io import write_text
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "compare")
+log = runlog.job(sm, "compare")
 df = collect(sm.input, sm.params.tables)
 md, page = render(df, {t: [tuple(f) for f in figs] for t, figs in sm.params.figures.items()})
 write_text(md, sm.output.md)

@@ -5,7 +5,7 @@ from scintrack.data.manifest import build_manifest
 from scintrack.io import pretty_json, write_text
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "dataset_manifest")
+log = runlog.job(sm, "dataset_manifest")
 manifest = build_manifest(sm.input)
 write_text(pretty_json(manifest), sm.output[0])
 log.info("%d datasets listed", len(manifest["datasets"]))

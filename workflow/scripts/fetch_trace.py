@@ -8,7 +8,7 @@ from scintrack.data.download import fetch
 from scintrack.data.registry import expected_sha256, record_sha256
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "fetch_trace")
+log = runlog.job(sm, "fetch_trace")
 expected = expected_sha256(sm.params.registry, sm.params.name)
 actual = fetch(dict(sm.params.source), sm.output[0], expected, trust_on_first_use=bool(sm.params.tofu), registry=sm.params.registry)  # FetchError: one error: line
 if expected is None:

@@ -5,7 +5,7 @@ from scintrack.io import open_dataset, provenance, write_netcdf
 from scintrack.models.lut import fit_training_set
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "ar_fit")
+log = runlog.job(sm, "ar_fit")
 train = open_dataset(sm.input.train)
 for output, params, wrapped in ((sm.output.unwrapped, sm.params.fit, False), (sm.output.wrapped, sm.params.fit_wrapped, True)):
     ar = params["ar_models"]

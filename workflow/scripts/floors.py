@@ -5,7 +5,7 @@ from scintrack.experiments.floors import floors_table
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "vv_floors")
+log = runlog.job(sm, "vv_floors")
 lut = open_dataset(sm.input.lut)
 for run, output in zip(sm.params.runs.values(), sm.output, strict=True):
     fl = run["floors"]

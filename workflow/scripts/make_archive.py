@@ -12,7 +12,7 @@ from scintrack.errors import InputError
 from scintrack.io import git_state
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "archive")
+log = runlog.job(sm, "archive")
 cfg = sm.params.config
 git = git_state(Path(scintrack.__file__).resolve().parent)
 try:

@@ -6,7 +6,7 @@ from scintrack.errors import InputError
 from scintrack.io import provenance, write_netcdf
 
 sm = snakemake  # noqa: F821 (injected by Snakemake)
-log = runlog.setup(sm.log[0], "csm_training_set")
+log = runlog.job(sm, "csm_training_set")
 params = dict(sm.params.dataset)
 version = csm_training_version(params)
 if version != sm.wildcards.version:

@@ -8,7 +8,7 @@ from scintrack.io import open_dataset
 from scintrack.pipeline.paths import IQ_SEGMENTS
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "gps_iq_recording")
+log = runlog.job(sm, "gps_iq_recording")
 params = dict(sm.params.iq)
 version = iq_version(params)
 if f"/{version}/" not in str(sm.output[0]):

@@ -7,7 +7,7 @@ from scintrack.errors import InputError
 from scintrack.io import provenance, write_netcdf
 
 sm = snakemake  # noqa: F821 (injected by Snakemake)
-log = runlog.setup(sm.log[0], "gps_jamming_dataset")
+log = runlog.job(sm, "gps_jamming_dataset")
 params = dict(sm.params.dataset)
 version = gps_jamming_version(params)
 if not str(sm.output[0]).endswith(f"/{version}.nc"):

@@ -6,7 +6,7 @@ from scintrack.errors import InputError
 from scintrack.io import provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "surrogate_event")
+log = runlog.job(sm, "surrogate_event")
 params = dict(sm.params.dataset)
 version = surrogate_version(params)
 if version != sm.wildcards.version:

@@ -5,7 +5,7 @@ from scintrack.io import open_dataset, provenance, write_netcdf
 from scintrack.models.lut import merge_lut
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "ar_lut")
+log = runlog.job(sm, "ar_lut")
 fits = [open_dataset(p) for p in sm.input]
 lut = merge_lut(fits)
 lut.attrs.update(provenance(config=sm.params.lut, inputs=sm.input))

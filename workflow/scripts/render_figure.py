@@ -18,7 +18,7 @@ from scintrack.products.gallery import figure_record, write_record
 
 sm = snakemake  # noqa: F821
 product = get(sm.params.product, sm.params.module)
-log = runlog.setup(sm.log[0], product.name)
+log = runlog.job(sm, product.name)
 datasets = {name: open_dataset(path, lazy=True) for name, path in sm.input.items()}  # only the variables drawn are read
 kwargs = dict(sm.params.kwargs)
 fig = product.function(*datasets.values(), **kwargs)

@@ -4,6 +4,6 @@ from scintrack import runlog
 from scintrack.products.gallery import render_gallery
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "gallery")
+log = runlog.job(sm, "gallery")
 render_gallery(sm.input.records, sm.output.md, sm.output.html)
 log.info("gallery of %d figures", len(sm.input.records))

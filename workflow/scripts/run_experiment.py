@@ -7,7 +7,7 @@ from scintrack.io import write_netcdf
 
 sm = snakemake  # noqa: F821
 runs = sm.params.runs
-log = runlog.setup(sm.log[0], f"tracking_{next(iter(runs.values()))['experiment']}")
+log = runlog.job(sm, f"tracking_{next(iter(runs.values()))['experiment']}")
 for (scenario, run), output in zip(runs.items(), sm.output, strict=True):
     trace = sm.input.get(f"trace_{scenario}")  # a trace scenario's trace (Susi 2014), else None
     inputs = [sm.input.lut] if trace is None else [sm.input.lut, trace]

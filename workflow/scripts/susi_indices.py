@@ -6,7 +6,7 @@ from scintrack.experiments.traces import scenario_trace
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "susi_indices")
+log = runlog.job(sm, "susi_indices")
 run = sm.params.run
 exp = run["experiment"]
 idx = run["indices"]

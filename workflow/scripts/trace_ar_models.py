@@ -5,7 +5,7 @@ from scintrack.experiments.traces import fit_trace_models
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "trace_ar_models")
+log = runlog.job(sm, "trace_ar_models")
 run = sm.params.run
 ds = open_dataset(sm.input[0])
 models = fit_trace_models(ds, fit_s=float(run["fit_s"]), ts=float(run["ts"]))

@@ -5,7 +5,7 @@ from scintrack.data.traces import TraceFormatError, load_trace
 from scintrack.io import content_hash, provenance, sha256_file, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "trace_dataset")
+log = runlog.job(sm, "trace_dataset")
 event = sm.wildcards.event
 run = sm.params.trace
 try:

@@ -5,7 +5,7 @@ from scintrack.experiments.traces import trace_diagnostics
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "trace_diagnostics")
+log = runlog.job(sm, "trace_diagnostics")
 run = sm.params.run
 events = {name: open_dataset(path) for name, path in sm.input.items()}
 diag = trace_diagnostics(

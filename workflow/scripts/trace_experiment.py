@@ -5,7 +5,7 @@ from scintrack.experiments.traces import dynamics_experiment, static_experiment
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], sm.rule)
+log = runlog.job(sm, sm.rule)
 trace = open_dataset(sm.input.trace)
 models = open_dataset(sm.input.models)
 

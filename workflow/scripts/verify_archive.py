@@ -7,7 +7,7 @@ from scintrack.archive.verify import verify
 from scintrack.io import write_text
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "verify")
+log = runlog.job(sm, "verify")
 problems = verify(sm.input[0], against=".")
 for line in problems:
     log.error("%s", line)

@@ -6,7 +6,7 @@ from scintrack.io import open_dataset, provenance, write_netcdf
 from scintrack.signals.gps import ephemeris
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "zhao_bit_prediction")
+log = runlog.job(sm, "zhao_bit_prediction")
 params = dict(sm.params.prediction)
 ds = open_dataset(sm.input.dataset)
 out = predictions(ds, ephemeris.load(sm.input.ephemerides), ephemeris.read_header(sm.input.ephemerides))

@@ -5,7 +5,7 @@ from scintrack.experiments.gps_cn0 import estimate
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "zhao_cn0_estimates")
+log = runlog.job(sm, "zhao_cn0_estimates")
 params = dict(sm.params.cn0)
 ds = open_dataset(sm.input.dataset)
 out = estimate(ds, params)

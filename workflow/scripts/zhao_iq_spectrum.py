@@ -8,7 +8,7 @@ from scintrack.pipeline.paths import IQ_SEGMENTS
 from scintrack.signals.gps.iq import FULL_SCALE, read_recording
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "zhao_iq_spectrum")
+log = runlog.job(sm, "zhao_iq_spectrum")
 params = dict(sm.params.spectrum)
 ds = open_dataset(sm.input.dataset)
 segments, truth = {}, {}

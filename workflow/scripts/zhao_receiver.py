@@ -5,7 +5,7 @@ from scintrack.experiments.gps_positioning import receiver_result
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.setup(sm.log[0], "zhao_receiver")
+log = runlog.job(sm, "zhao_receiver")
 params = dict(sm.params.receiver)
 ds = open_dataset(sm.input.dataset)
 channels = [open_dataset(p) for p in sm.input.channels]

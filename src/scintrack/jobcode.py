@@ -1,0 +1,76 @@
+"""The code a workflow job runs, checked against the code its rule was planned with.
+
+Every rule gets the code version of its script and of the package modules the
+script reaches as its ``code`` param (:func:`planned`, computed when Snakemake
+builds the DAG), so editing a module reruns exactly the rules that import it.
+A module edited *after* the DAG was planned would otherwise slip through: the
+job would import the edited module while its output is recorded under the
+planned version, and after the edit is reverted ``snakemake -n`` would see
+nothing to do and keep output of code that is in no commit.
+
+So a job checks twice (:mod:`scintrack.runlog` calls :func:`start` after the
+script's imports; :mod:`scintrack.io` and the figure writer call
+:func:`confirm` before every output is renamed into place): the code version
+computed from the files on disk now, by the same normalised-source hash
+(:func:`scintrack.codeversion.code_version`), must equal the planned one.  A
+difference ends the job with one line, ``source changed during the run``, and
+no output is written.  What ran (the code version and the git state at the
+job's start) is recorded in every result's attributes
+(:func:`scintrack.io.provenance`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from .codeversion import clear_caches, code_version
+from .errors import InputError
+
+#: what this process's job runs: its planned code, the version found at its start and the git state then
+_RAN: dict[str, Any] = {}
+
+
+class CodeChanged(InputError):
+    """The package or script changed between planning a job and running (or finishing) it."""
+
+
+def planned(scripts: Path, script: str, *modules: str) -> dict[str, Any]:
+    """The ``code`` param of a rule: the code version of ``scripts/script`` and ``modules``, with what it covers
+    (names relative to the scripts folder and the package, so the param does not depend on the checkout's path)."""
+    return {"version": code_version([Path(scripts) / script, *modules]), "script": script, "modules": list(modules)}
+
+
+def _now(code: Mapping[str, Any], scriptdir: str | Path) -> str:
+    clear_caches()  # re-read the sources (the disk cache is keyed by the files' bytes, so it cannot be stale)
+    return code_version([Path(scriptdir) / code["script"], *code["modules"]])
+
+
+def _refuse(code: Mapping[str, Any], now: str, when: str) -> CodeChanged:
+    covers = ", ".join([code["script"], *code["modules"]])
+    return CodeChanged(f"source changed during the run: the code of {covers} is {now} {when}, the rule was planned with "
+                       f"{code['version']}; nothing was written, rerun snakemake")
+
+
+def start(code: Mapping[str, Any], scriptdir: str | Path, git: Mapping[str, Any]) -> None:
+    """Check the code on disk against the plan at the job's start and remember what runs (see the module docstring)."""
+    now = _now(code, scriptdir)
+    if now != code["version"]:
+        raise _refuse(code, now, "at the job's start")
+    _RAN.clear()
+    _RAN.update(code=dict(code), scriptdir=str(scriptdir), code_version=now, git=dict(git))
+
+
+def confirm() -> None:
+    """Check again before an output is written (nothing to check outside a job)."""
+    if not _RAN:
+        return
+    now = _now(_RAN["code"], _RAN["scriptdir"])
+    if now != _RAN["code"]["version"]:
+        raise _refuse(_RAN["code"], now, "now")
+
+
+def ran() -> dict[str, Any]:
+    """The code version and git state this job started with (empty outside a job)."""
+    return {"code_version": _RAN["code_version"], **_RAN["git"]} if _RAN else {}
