@@ -19,7 +19,7 @@ def script(tmp_path):
     path.write_text("from scintrack.seeding import stable_key\n\nVALUE = 1\n")
     clear_caches()
     yield path, jobcode.planned(tmp_path, "job.py", "scintrack.seeding")
-    jobcode._RAN.clear()  # noqa: SLF001 (the test's own process is not a job)
+    io.JOB.clear()  # the test's own process is not a job
 
 
 def test_unchanged_code_starts_and_records_the_version_and_the_git_state_at_the_start(script, monkeypatch):
@@ -36,7 +36,7 @@ def test_a_comment_is_not_a_change_but_code_is(script):
     jobcode.start(code, path.parent, {"git_commit": "abc", "git_dirty": False})
     path.write_text(path.read_text() + "VALUE = 2\n")
     with pytest.raises(jobcode.CodeChanged, match="source changed during the run"):
-        jobcode.confirm()
+        io.confirm_job_code()
     with pytest.raises(jobcode.CodeChanged, match="at the job's start"):
         jobcode.start(code, path.parent, {"git_commit": "abc", "git_dirty": False})
 

@@ -26,7 +26,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from . import __version__, jobcode
+from . import __version__
 from .atomic import atomic_bytes, atomic_write
 from .errors import InputError, one_line
 
@@ -105,6 +105,17 @@ def git_state(cwd: str | os.PathLike | None = None) -> dict[str, Any]:
         return {"git_commit": "unknown", "git_dirty": True}
 
 
+#: in a workflow job: what ran (``ran``: code version and git state at the job's start) and the check every
+#: output passes first (``confirm``); set by :func:`scintrack.jobcode.begin`, empty outside a job
+JOB: dict[str, Any] = {}
+
+
+def confirm_job_code() -> None:
+    """In a workflow job, check that its code is still the code its rule was planned with (nothing to do outside one)."""
+    if JOB:
+        JOB["confirm"]()
+
+
 def provenance(
     *,
     config: Mapping[str, Any] | None = None,
@@ -119,9 +130,9 @@ def provenance(
     hash ``config_sha256`` is what ``archive``/``verify`` recompute from a
     config to check that the result belongs to it.  In a workflow job the git
     state is the one at the job's start and ``code_version`` is the code that
-    ran (:mod:`scintrack.jobcode`).
+    ran (:mod:`scintrack.jobcode`, :data:`JOB`).
     """
-    state = jobcode.ran() or git_state(Path(__file__).resolve().parent)
+    state = JOB.get("ran") or git_state(Path(__file__).resolve().parent)
     attrs: dict[str, Any] = {
         "scintrack_version": __version__,
         "git_commit": state["git_commit"],
@@ -164,14 +175,14 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, compress: bool = Tr
                 raise
             raise OSError(f"the NetCDF library could not write it: {exc}") from None
 
-    jobcode.confirm()  # in a job: only output of the planned code
+    confirm_job_code()  # in a job: only output of the planned code
     atomic_write(path, write)
     return digest
 
 
 def write_text(text: str | bytes, path: str | os.PathLike) -> None:
     """Write text or bytes atomically (temporary file, then rename), in a job only if its code is still the planned code."""
-    jobcode.confirm()
+    confirm_job_code()
     atomic_bytes(path, text)
 
 

@@ -8,9 +8,9 @@ job would import the edited module while its output is recorded under the
 planned version, and after the edit is reverted ``snakemake -n`` would see
 nothing to do and keep output of code that is in no commit.
 
-So a job checks twice (:mod:`scintrack.runlog` calls :func:`start` after the
-script's imports; :mod:`scintrack.io` and the figure writer call
-:func:`confirm` before every output is renamed into place): the code version
+So a job checks twice (every workflow script calls :func:`begin` after its
+imports; :mod:`scintrack.io` and the figure writer call the check it leaves in
+:data:`scintrack.io.JOB` before every output is renamed into place): the code version
 computed from the files on disk now, by the same normalised-source hash
 (:func:`scintrack.codeversion.code_version`), must equal the planned one.  A
 difference ends the job with one line, ``source changed during the run``, and
@@ -25,11 +25,9 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from . import io, runlog
 from .codeversion import clear_caches, code_version
 from .errors import InputError
-
-#: what this process's job runs: its planned code, the version found at its start and the git state then
-_RAN: dict[str, Any] = {}
 
 
 class CodeChanged(InputError):
@@ -54,23 +52,25 @@ def _refuse(code: Mapping[str, Any], now: str, when: str) -> CodeChanged:
 
 
 def start(code: Mapping[str, Any], scriptdir: str | Path, git: Mapping[str, Any]) -> None:
-    """Check the code on disk against the plan at the job's start and remember what runs (see the module docstring)."""
+    """Check the code on disk against the plan at the job's start and leave what runs, and the check every output
+    passes, in :data:`scintrack.io.JOB` (see the module docstring)."""
     now = _now(code, scriptdir)
     if now != code["version"]:
         raise _refuse(code, now, "at the job's start")
-    _RAN.clear()
-    _RAN.update(code=dict(code), scriptdir=str(scriptdir), code_version=now, git=dict(git))
+    plan = dict(code)
+
+    def confirm() -> None:
+        later = _now(plan, scriptdir)
+        if later != plan["version"]:
+            raise _refuse(plan, later, "now")
+
+    io.JOB.clear()
+    io.JOB.update(ran={"code_version": now, **git}, confirm=confirm)
 
 
-def confirm() -> None:
-    """Check again before an output is written (nothing to check outside a job)."""
-    if not _RAN:
-        return
-    now = _now(_RAN["code"], _RAN["scriptdir"])
-    if now != _RAN["code"]["version"]:
-        raise _refuse(_RAN["code"], now, "now")
-
-
-def ran() -> dict[str, Any]:
-    """The code version and git state this job started with (empty outside a job)."""
-    return {"code_version": _RAN["code_version"], **_RAN["git"]} if _RAN else {}
+def begin(sm, name: str):
+    """Start a workflow job (its Snakemake object ``sm``): :func:`scintrack.runlog.setup`, then :func:`start` with
+    the rule's ``code`` param and the git state now; returns the job's logger."""
+    logger = runlog.setup(sm.log[0] if sm.log else None, name)
+    start(sm.params.code, sm.scriptdir, io.git_state(Path(__file__).resolve().parent))
+    return logger

@@ -1,7 +1,7 @@
 """Logging for workflow scripts: messages and warnings go to the rule's log file;
 an uncaught :class:`scintrack.errors.InputError` becomes one ``error:`` line
-(:func:`scintrack.errors.install_script_hook`).  :func:`job` also checks the
-code the job runs against the code its rule was planned with (:mod:`scintrack.jobcode`)."""
+(:func:`scintrack.errors.install_script_hook`).  A workflow job starts with
+:func:`scintrack.jobcode.begin`, which calls :func:`setup`."""
 
 from __future__ import annotations
 
@@ -10,8 +10,7 @@ import os
 import sys
 from pathlib import Path
 
-from . import errors, jobcode, profiling
-from .io import git_state
+from . import errors, profiling
 
 
 def setup(log_path: str | None, name: str) -> logging.Logger:
@@ -38,14 +37,6 @@ def setup(log_path: str | None, name: str) -> logging.Logger:
     errors.install_script_hook(lambda line: _to_log_file(logger, line))
     # the allocator setting the job runs with (the Snakefile sets it for every job; docs/performance.md)
     logger.info("GLIBC_TUNABLES=%s", os.environ.get("GLIBC_TUNABLES", "(unset)"))
-    return logger
-
-
-def job(sm, name: str) -> logging.Logger:
-    """:func:`setup` for a workflow job (its Snakemake object ``sm``), then :func:`scintrack.jobcode.start`:
-    the job refuses, in one line, to run code other than the code its rule was planned with."""
-    logger = setup(sm.log[0] if sm.log else None, name)
-    jobcode.start(sm.params.code, sm.scriptdir, git_state(Path(__file__).resolve().parent))
     return logger
 
 

@@ -2,12 +2,12 @@
 
 import xarray as xr
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.io import open_dataset, provenance, write_netcdf
 from scintrack.models.diagnostics import ar_diagnostics
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "ar_diagnostics")
+log = jobcode.begin(sm, "ar_diagnostics")
 # Only the fits of the S4 values shown: a figure never waits for the whole grid.
 fits = xr.concat([open_dataset(p) for p in sm.input.fits], dim="s4")
 trains = {float(ds["s4"]): ds for ds in map(open_dataset, sm.input.train)}

@@ -1,11 +1,11 @@
 """Publication rule entry point: the paper-vs-reproduced page."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.archive.compare import collect, render, summary
 from scintrack.io import write_text
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "compare")
+log = jobcode.begin(sm, "compare")
 df = collect(sm.input, sm.params.tables)
 md, page = render(df, {t: [tuple(f) for f in figs] for t, figs in sm.params.figures.items()})
 write_text(md, sm.output.md)

@@ -3,12 +3,12 @@
 import sys
 from datetime import UTC, datetime
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.data.download import fetch
 from scintrack.data.registry import expected_sha256, record_sha256
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "fetch_trace")
+log = jobcode.begin(sm, "fetch_trace")
 expected = expected_sha256(sm.params.registry, sm.params.name)
 actual = fetch(dict(sm.params.source), sm.output[0], expected, trust_on_first_use=bool(sm.params.tofu), registry=sm.params.registry)  # FetchError: one error: line
 if expected is None:

@@ -1,11 +1,11 @@
 """AR rule entry point: fit AR models to one training dataset, with the phase unwrapped and (reading R5) wrapped."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.io import open_dataset, provenance, write_netcdf
 from scintrack.models.lut import fit_training_set
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "ar_fit")
+log = jobcode.begin(sm, "ar_fit")
 train = open_dataset(sm.input.train)
 for output, params, wrapped in ((sm.output.unwrapped, sm.params.fit, False), (sm.output.wrapped, sm.params.fit_wrapped, True)):
     ar = params["ar_models"]

@@ -1,11 +1,11 @@
 """Rule entry point: the achievability floors of the Table III cells, one result per cell (scintrack.experiments.floors)."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.experiments.floors import floors_table
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "vv_floors")
+log = jobcode.begin(sm, "vv_floors")
 lut = open_dataset(sm.input.lut)
 for run, output in zip(sm.params.runs.values(), sm.output, strict=True):
     fl = run["floors"]

@@ -4,7 +4,7 @@ import sys
 from pathlib import Path
 
 import scintrack
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.archive.build import ArchiveRefused, check_results_config, check_tree, collect_members, finish
 from scintrack.archive.metadata import benchmark_timings
 from scintrack.archive.tarball import write_tarball
@@ -12,7 +12,7 @@ from scintrack.errors import InputError
 from scintrack.io import git_state
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "archive")
+log = jobcode.begin(sm, "archive")
 cfg = sm.params.config
 git = git_state(Path(scintrack.__file__).resolve().parent)
 try:

@@ -1,12 +1,12 @@
 """Data rule entry point: generate one versioned CSM training dataset."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.data.synthetic import csm_training_dataset, csm_training_version
 from scintrack.errors import InputError
 from scintrack.io import provenance, write_netcdf
 
 sm = snakemake  # noqa: F821 (injected by Snakemake)
-log = runlog.job(sm, "csm_training_set")
+log = jobcode.begin(sm, "csm_training_set")
 params = dict(sm.params.dataset)
 version = csm_training_version(params)
 if version != sm.wildcards.version:

@@ -1,6 +1,6 @@
 """Data rule entry point: the SKYDEL-like IQ recordings (clean and jammed segments) of the jammed GPS scenario."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.data.gps_iq import iq_version
 from scintrack.data.gps_iq_build import record, write
 from scintrack.errors import InputError
@@ -8,7 +8,7 @@ from scintrack.io import open_dataset
 from scintrack.pipeline.paths import IQ_SEGMENTS
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "gps_iq_recording")
+log = jobcode.begin(sm, "gps_iq_recording")
 params = dict(sm.params.iq)
 version = iq_version(params)
 if f"/{version}/" not in str(sm.output[0]):

@@ -1,13 +1,13 @@
 """Data rule entry point: the jammed GPS L1 C/A scenario dataset (Zhao et al.)."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.data.gps_jamming_build import build
 from scintrack.data.gps_jamming_spec import gps_jamming_version
 from scintrack.errors import InputError
 from scintrack.io import provenance, write_netcdf
 
 sm = snakemake  # noqa: F821 (injected by Snakemake)
-log = runlog.job(sm, "gps_jamming_dataset")
+log = jobcode.begin(sm, "gps_jamming_dataset")
 params = dict(sm.params.dataset)
 version = gps_jamming_version(params)
 if not str(sm.output[0]).endswith(f"/{version}.nc"):

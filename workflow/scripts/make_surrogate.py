@@ -1,12 +1,12 @@
 """Data rule entry point: generate one versioned SURROGATE event (phase screen)."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.data.surrogate import GENERATOR, surrogate_event, surrogate_version
 from scintrack.errors import InputError
 from scintrack.io import provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "surrogate_event")
+log = jobcode.begin(sm, "surrogate_event")
 params = dict(sm.params.dataset)
 version = surrogate_version(params)
 if version != sm.wildcards.version:

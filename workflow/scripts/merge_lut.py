@@ -1,11 +1,11 @@
 """AR rule entry point: merge per-S4 fits into the AR look-up table."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.io import open_dataset, provenance, write_netcdf
 from scintrack.models.lut import merge_lut
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "ar_lut")
+log = jobcode.begin(sm, "ar_lut")
 fits = [open_dataset(p) for p in sm.input]
 lut = merge_lut(fits)
 lut.attrs.update(provenance(config=sm.params.lut, inputs=sm.input))

@@ -8,7 +8,7 @@ figure's gallery entry (paper figure, claim, verdict, data kind) and the
 layout check's problems (logged as warnings too).
 """
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.experiments.guards import divergence_note
 from scintrack.io import open_dataset
 from scintrack.products import get
@@ -18,7 +18,7 @@ from scintrack.products.gallery import figure_record, write_record
 
 sm = snakemake  # noqa: F821
 product = get(sm.params.product, sm.params.module)
-log = runlog.job(sm, product.name)
+log = jobcode.begin(sm, product.name)
 datasets = {name: open_dataset(path, lazy=True) for name, path in sm.input.items()}  # only the variables drawn are read
 kwargs = dict(sm.params.kwargs)
 fig = product.function(*datasets.values(), **kwargs)

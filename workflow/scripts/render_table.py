@@ -5,7 +5,7 @@ The function (found through :mod:`scintrack.products`) returns
 ``<stem>_csv`` and ``<stem>_md`` outputs.
 """
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.experiments.guards import divergence_note
 from scintrack.io import open_dataset
 from scintrack.products import get
@@ -13,7 +13,7 @@ from scintrack.products.tables.common import join_notes, write_table
 
 sm = snakemake  # noqa: F821
 product = get(sm.params.product, sm.params.module)
-log = runlog.job(sm, product.name)
+log = jobcode.begin(sm, product.name)
 inputs = [open_dataset(path, lazy=True) for path in sm.input]  # only the variables tabulated are read
 tables = product.function(*inputs)
 guard_note = divergence_note(inputs)  # diverged trials / non-estimable S4 of the tracking results read (guards)

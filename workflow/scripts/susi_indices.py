@@ -1,12 +1,12 @@
 """Susi 2014 rule entry point: S4, Phi60, Phi3 and T, p of one trace scenario (Figs. 3 and 6)."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.experiments.susi_indices import scenario_indices
 from scintrack.experiments.traces import scenario_trace
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "susi_indices")
+log = jobcode.begin(sm, "susi_indices")
 run = sm.params.run
 exp = run["experiment"]
 idx = run["indices"]

@@ -1,11 +1,11 @@
 """Data rule entry point: validate a real trace and write it in the canonical format."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.data.traces import TraceFormatError, load_trace
 from scintrack.io import content_hash, provenance, sha256_file, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "trace_dataset")
+log = jobcode.begin(sm, "trace_dataset")
 event = sm.wildcards.event
 run = sm.params.trace
 try:

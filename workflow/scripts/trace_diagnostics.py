@@ -1,11 +1,11 @@
 """Sec. VI-E rule entry point: S4(t) and segment PACFs of every trace (Figs. 12-14)."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.experiments.traces import trace_diagnostics
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "trace_diagnostics")
+log = jobcode.begin(sm, "trace_diagnostics")
 run = sm.params.run
 events = {name: open_dataset(path) for name, path in sm.input.items()}
 diag = trace_diagnostics(

@@ -1,11 +1,11 @@
 """Sec. VI-E rule entry point: the static and the dynamics experiment on one event; every setting from ``params``."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.experiments.traces import dynamics_experiment, static_experiment
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, sm.rule)
+log = jobcode.begin(sm, sm.rule)
 trace = open_dataset(sm.input.trace)
 models = open_dataset(sm.input.models)
 

@@ -2,12 +2,12 @@
 
 import sys
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.archive.verify import verify
 from scintrack.io import write_text
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "verify")
+log = jobcode.begin(sm, "verify")
 problems = verify(sm.input[0], against=".")
 for line in problems:
     log.error("%s", line)

@@ -1,11 +1,11 @@
 """Result rule entry point: C/N0 estimated from correlator outputs over the jammed GPS scenario."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.experiments.gps_cn0 import estimate
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "zhao_cn0_estimates")
+log = jobcode.begin(sm, "zhao_cn0_estimates")
 params = dict(sm.params.cn0)
 ds = open_dataset(sm.input.dataset)
 out = estimate(ds, params)

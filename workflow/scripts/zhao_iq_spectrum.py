@@ -1,6 +1,6 @@
 """Result rule entry point: spectra (raw and despread) of the clean and jammed IQ recordings."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.data.gps_iq_build import sv_signal
 from scintrack.experiments.iq_spectrum import spectra
 from scintrack.io import open_dataset, provenance, write_netcdf
@@ -8,7 +8,7 @@ from scintrack.pipeline.paths import IQ_SEGMENTS
 from scintrack.signals.gps.iq import FULL_SCALE, read_recording
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "zhao_iq_spectrum")
+log = jobcode.begin(sm, "zhao_iq_spectrum")
 params = dict(sm.params.spectrum)
 ds = open_dataset(sm.input.dataset)
 segments, truth = {}, {}

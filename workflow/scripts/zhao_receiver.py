@@ -1,11 +1,11 @@
 """Result rule entry point: positions and metrics of the jamming receiver from its channels."""
 
-from scintrack import runlog
+from scintrack import jobcode
 from scintrack.experiments.gps_positioning import receiver_result
 from scintrack.io import open_dataset, provenance, write_netcdf
 
 sm = snakemake  # noqa: F821
-log = runlog.job(sm, "zhao_receiver")
+log = jobcode.begin(sm, "zhao_receiver")
 params = dict(sm.params.receiver)
 ds = open_dataset(sm.input.dataset)
 channels = [open_dataset(p) for p in sm.input.channels]

@@ -89,10 +89,14 @@ def _line_points(line, ax_box) -> np.ndarray:
     return disp[inside]
 
 
-def _label_of(artist) -> str:
-    text = artist.get_text() if hasattr(artist, "get_text") else artist.get_label()
+def _short(text: object) -> str:
+    """``text`` on one line, cut to 40 characters (how a problem names a text, line or axes)."""
     text = " ".join(str(text).split())
     return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _label_of(artist) -> str:
+    return _short(artist.get_text() if hasattr(artist, "get_text") else artist.get_label())
 
 
 def check_figure(fig, dpi: float | None = None) -> list[str]:
@@ -153,7 +157,7 @@ def check_figure(fig, dpi: float | None = None) -> list[str]:
                         if lo - 1e-9 * abs(span) <= loc <= hi + 1e-9 * abs(span) and lab.get_visible() and lab.get_text().strip()]
             if len(labelled) < 2:
                 where = ax.get_title() or ax.get_ylabel() or ax.get_xlabel() or "an axes"
-                problems.append(f"few-ticks: the {name} axis of {_label_of_text(where)!r} has {len(labelled)} labelled tick(s)")
+                problems.append(f"few-ticks: the {name} axis of {_short(where)!r} has {len(labelled)} labelled tick(s)")
     return sorted(set(problems))
 
 
@@ -164,8 +168,3 @@ def _no_scale(axis) -> bool:
 
     locator = axis.get_major_locator()
     return isinstance(locator, FixedLocator) and len(locator.locs) == 0
-
-
-def _label_of_text(text: str) -> str:
-    text = " ".join(str(text).split())
-    return text if len(text) <= 40 else text[:37] + "..."

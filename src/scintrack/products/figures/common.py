@@ -57,9 +57,9 @@ def save_figure(fig, paths: Iterable[str | os.PathLike]) -> list[Path]:
     """
     from matplotlib.layout_engine import PlaceHolderLayoutEngine
 
-    from ... import jobcode
+    from ...io import confirm_job_code
 
-    jobcode.confirm()  # in a job: only figures of the code its rule was planned with
+    confirm_job_code()  # in a job: only figures of the code its rule was planned with
     if isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine):
         fig.set_layout_engine(None)
     written = []
