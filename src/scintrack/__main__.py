@@ -1,8 +1,9 @@
 """Command line.
 
 * ``python -m scintrack verify ARCHIVE_OR_DIR [--against TREE]``: prints one
-  line per mismatch and exits 1 if there is any (2 for a path that does not
-  exist); prints ``OK ...`` and exits 0 otherwise.
+  line per problem (a kind word, the member, why: :mod:`scintrack.archive.verify`)
+  and exits 1 if there is any; a path that does not exist is one ``error:``
+  line and exit 2; prints ``OK ...`` and exits 0 otherwise.
 * ``python -m scintrack check-config FILE [FILE ...]``: reads config files
   with the project's loader (a YAML error names the file and line) and exits
   2 with that one line; ``repro.py run`` calls it on every ``--configfile``
@@ -49,11 +50,12 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         return 0
     from .archive.verify import verify
+    from .errors import InputError, one_line
 
     try:
         problems = verify(args.bundle, args.against)
-    except FileNotFoundError as exc:
-        print(f"verify: {exc}", file=sys.stderr)
+    except InputError as exc:
+        print(f"error: {one_line(exc)}", file=sys.stderr)
         return 2
     for line in problems:
         print(line)
