@@ -17,7 +17,7 @@ from typing import Any
 import yaml
 
 from .errors import ConfigError
-from .yamlio import yaml_load
+from .yamlio import DuplicateKeyError, yaml_load
 
 
 def deep_merge(base: Mapping[str, Any], overlay: Mapping[str, Any]) -> dict[str, Any]:
@@ -32,7 +32,12 @@ def deep_merge(base: Mapping[str, Any], overlay: Mapping[str, Any]) -> dict[str,
 
 
 def load_config(paths: Iterable[str | Path]) -> dict[str, Any]:
-    """Read and merge YAML files in order (later ones override earlier ones)."""
+    """Read and merge YAML files in order (later ones override earlier ones).
+
+    A key given twice in one mapping of a file (at any depth) is refused with
+    the file, the line of the repeat and the key (:class:`~.yamlio.DuplicateKeyError`):
+    YAML readers keep only the last, which would drop the first silently.
+    """
     merged: dict[str, Any] = {}
     for path in paths:
         path = Path(path)
@@ -46,6 +51,9 @@ def load_config(paths: Iterable[str | Path]) -> dict[str, Any]:
             raise ConfigError(f"config file {path} nests too deeply to be a config; fix its syntax there") from None
         except OSError as exc:
             raise ConfigError(f"config file {path} cannot be read ({exc.strerror or exc}); pass a readable --configfile") from None
+        except DuplicateKeyError as exc:
+            raise ConfigError(f"config file {path}:{exc.line}: key {exc.key!r} is given twice in one mapping (first on line {exc.first_line}); "
+                              "keep one of them (a YAML reader keeps only the last and drops the other)") from None
         except yaml.YAMLError as exc:
             mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
             where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark is not None else str(path)

@@ -26,6 +26,14 @@ def fail(message):
     sys.exit(PREFIX + one_line(message))
 
 
+# Snakemake reads --configfile overlays with its own YAML loader, which keeps
+# the last of a key given twice; the project's loader refuses that (file:line, key).
+try:
+    load_config(workflow.config_settings.configfiles)
+except ConfigError as exc:
+    fail(exc)
+
+
 # --config values arrive as strings inside nested mappings ('15.0'); give them
 # the types they would have in a YAML config file, then validate everything.
 _OVERRIDES = typed_overrides(workflow.config_settings.config)

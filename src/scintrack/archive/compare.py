@@ -2,7 +2,11 @@
 
 Reads the ``*_vs_paper.csv`` twins and gives each cell a verdict: the
 paper's value lies inside our 95% interval, or within 25% of ours, or
-beyond; or the paper has no value for it.  Table I (AR orders) enters from
+beyond; or the paper has no value for it.  A cell without an interval (NaN
+bounds: fewer than two trials) shows the words of
+:data:`~scintrack.products.tables.common.NO_INTERVAL` in place of one, is
+never "within 95% CI", and the summary line counts such cells, whose verdict
+rests on the 25% ratio alone.  Table I (AR orders) enters from
 its long form: the paper's order against our modal order, with the range of
 orders over all fits in place of an interval.
 
@@ -25,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from ..products.tables.common import NO_INTERVAL
 
 PAPERS = {
     "vila_valls_2018": "Vilà-Valls et al. 2018, IEEE TAES 54(4), doi:10.1109/TAES.2018.2798480",
@@ -111,12 +117,22 @@ def collect(paths: Iterable[str | Path], tables: Mapping[str, Mapping[str, str]]
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
 
+def _no_interval(df: pd.DataFrame) -> pd.Series:
+    """Cells with a reproduced value but no interval (a NaN bound)."""
+    return np.isfinite(df["reproduced"]) & ~(np.isfinite(df["ci95_lo"]) & np.isfinite(df["ci95_hi"]))
+
+
 def summary(df: pd.DataFrame) -> str:
-    """One line: how many cells have a paper value and where the paper's value falls."""
+    """One line: how many cells have a paper value and where the paper's value falls (and how many of them have no interval)."""
     counts = df["verdict"].value_counts()
-    n = int((df["verdict"] != "no paper value").sum())
-    return (f"{n} cells with a paper value: {counts.get('within 95% CI', 0)} within our 95% interval, "
+    rated = df["verdict"] != "no paper value"
+    n = int(rated.sum())
+    line = (f"{n} cells with a paper value: {counts.get('within 95% CI', 0)} within our 95% interval, "
             f"{counts.get('within 25%', 0)} more within 25%, {counts.get('beyond', 0)} beyond.")
+    bare = int((rated & _no_interval(df)).sum())
+    if bare:
+        line += f" {bare} of them with {NO_INTERVAL}: their verdict rests on the 25% ratio alone."
+    return line
 
 
 def table_verdict(t: pd.DataFrame) -> str:
@@ -138,7 +154,8 @@ def headline(df: pd.DataFrame) -> list[tuple[str, str]]:
 
 def _shown(t: pd.DataFrame) -> pd.DataFrame:
     """The cells with readers' column names (the interval as one ``lo - hi`` column)."""
-    interval = [f"{lo:.3g} - {hi:.3g}" if np.isfinite(lo) and np.isfinite(hi) else "-" for lo, hi in zip(t["ci95_lo"], t["ci95_hi"])]
+    interval = [f"{lo:.3g} - {hi:.3g}" if np.isfinite(lo) and np.isfinite(hi) else NO_INTERVAL if np.isfinite(m) else "-"
+                for m, lo, hi in zip(t["reproduced"], t["ci95_lo"], t["ci95_hi"])]
     out = pd.DataFrame({"row": t["row"].astype(str), "column": t["column"].astype(str), "paper": t["paper"],
                         "reproduced": t["reproduced"], "interval": interval,
                         "ratio": t["reproduced"] / t["paper"].replace(0, np.nan), "verdict": t["verdict"]})

@@ -11,6 +11,11 @@
 * **Steady-state RMSE**: root of the mean square over trials and over the
   epochs from ``steady_start_s`` to the end; 95% interval from the spread of
   the per-trial mean squares.
+* **No interval from one trial.**  Every interval here rests on the spread
+  over trials, which one trial does not have: with fewer than two trials
+  (finite values, for :func:`mean_ci`) both bounds are NaN, never a
+  zero-width interval around the estimate.  Tables print that as words
+  (:data:`scintrack.products.tables.common.NO_INTERVAL`).
 * **Cycle slips**: the unwrapped error has stable points at ``2 pi n``
   (ATAN2-type tracking).  The error *leaves its cell* when it is more than
   ``pi + hysteresis`` from the cell centre; the cell then becomes the nearest
@@ -25,6 +30,8 @@
 """
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 
@@ -86,27 +93,36 @@ def derotated_sums(y: np.ndarray, phase: np.ndarray, per: int, start: int = 0, c
 
 
 def rmse_with_ci(sq_sum: np.ndarray, sq2_sum: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """RMSE and its 95% interval from sums over trials of e^2 and e^4."""
+    """RMSE and its 95% interval from sums over ``n`` trials of e^2 and e^4 (NaN bounds when ``n < 2``)."""
     ms = sq_sum / n
-    var_ms = np.maximum(sq2_sum / n - ms**2, 0.0) / max(n - 1, 1)
+    if n < 2:  # no spread over trials: no interval
+        nan = np.full_like(np.sqrt(ms), np.nan)
+        return np.sqrt(ms), nan, nan.copy()
+    var_ms = np.maximum(sq2_sum / n - ms**2, 0.0) / (n - 1)
     half = Z95 * np.sqrt(var_ms)
     return np.sqrt(ms), np.sqrt(np.maximum(ms - half, 0.0)), np.sqrt(ms + half)
 
 
 def mean_ci(x: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Mean and normal-approximation 95% interval of the mean along ``axis``."""
+    """Mean and normal-approximation 95% interval of the mean along ``axis``, over the finite values.
+
+    NaN values are left out; where fewer than two values are finite the bounds are NaN.
+    """
     m = np.nanmean(x, axis=axis)
     n = np.sum(np.isfinite(x), axis=axis)
-    half = 1.96 * np.nanstd(x, axis=axis, ddof=1) / np.sqrt(np.maximum(n, 1)) if x.shape[axis] > 1 else np.zeros_like(m)
+    with warnings.catch_warnings():  # numpy warns of the ddof=1 spread of a single value, which is masked below
+        warnings.simplefilter("ignore", RuntimeWarning)
+        half = 1.96 * np.nanstd(x, axis=axis, ddof=1) / np.sqrt(np.maximum(n, 1))
+    half = np.where(n >= 2, half, np.nan)[()]
     return m, m - half, m + half
 
 
 def steady_rmse(ms_per_trial: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Steady-state RMSE and 95% interval from per-trial mean squares."""
+    """Steady-state RMSE and 95% interval from per-trial mean squares (NaN bounds from one trial)."""
     ms = np.asarray(ms_per_trial)
     n = ms.shape[axis]
     mean = ms.mean(axis=axis)
-    half = Z95 * ms.std(axis=axis, ddof=1) / np.sqrt(n) if n > 1 else np.zeros_like(mean)
+    half = Z95 * ms.std(axis=axis, ddof=1) / np.sqrt(n) if n > 1 else np.full_like(mean, np.nan, dtype=float)
     return np.sqrt(mean), np.sqrt(np.maximum(mean - half, 0.0)), np.sqrt(mean + half)
 
 
@@ -140,10 +156,10 @@ def count_cycle_slips_numpy(e_unwrapped: np.ndarray, hysteresis: float = 0.5) ->
 
 
 def mean_with_ci(values: np.ndarray, axis: int = -1, lower: float | None = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Mean and normal 95% interval, clipped at ``lower`` (counts cannot be negative)."""
+    """Mean and normal 95% interval, clipped at ``lower`` (counts cannot be negative); NaN bounds from one value."""
     v = np.asarray(values, dtype=float)
     n = v.shape[axis]
     m = v.mean(axis=axis)
-    half = Z95 * v.std(axis=axis, ddof=1) / np.sqrt(n) if n > 1 else np.zeros_like(m)
+    half = Z95 * v.std(axis=axis, ddof=1) / np.sqrt(n) if n > 1 else np.full_like(m, np.nan)
     lo = m - half if lower is None else np.maximum(m - half, lower)
     return m, lo, m + half

@@ -45,6 +45,7 @@ from ...experiments.metrics import mean_with_ci
 from ...labels import tracker_labels
 from ...pipeline import paths
 from ..registry import table
+from .common import NO_INTERVAL
 from .susi_2014 import any_surrogate, experiment_scenarios
 
 if TYPE_CHECKING:
@@ -162,7 +163,7 @@ def ranking_long(results: Sequence[xr.Dataset]) -> pd.DataFrame:
     kept["rank_total"] = kept.groupby("scenario")["rmse_total_rad"].rank(method="min").astype("Int64")
     kept["n_trackers"] = kept.groupby("scenario")["tracker"].transform("size")
     best_hi = kept.loc[kept["rank"].eq(1).fillna(False).astype(bool)].groupby("scenario")["ci95_hi"].min()
-    kept["ci_overlaps_best"] = kept["ci95_lo"] <= kept["scenario"].map(best_hi)
+    kept["ci_overlaps_best"] = overlaps(kept["ci95_lo"], kept["scenario"].map(best_hi))
     kept["near_uniform"] = kept["rmse_wrapped_rad"] >= NEAR_UNIFORM * UNIFORM_RMSE
     kept["outside_design"] = [OUTSIDE_DESIGN.get(t, ("", ""))[0] == d for t, d in zip(kept["tracker"], kept["data"])]
     kept = kept.sort_values(["_scen", "rank", "_pos"], kind="stable")
@@ -177,6 +178,14 @@ def ranking_long(results: Sequence[xr.Dataset]) -> pd.DataFrame:
             "in_mean_rank_total", "total_slip_events_per_min", "total_slips_ci95_lo", "total_slips_ci95_hi", "trials", "experiment",
             "dropped_duplicate"]
     return kept[cols].reset_index(drop=True)
+
+
+def overlaps(lo: pd.Series, best_hi: pd.Series) -> pd.Series:
+    """Whether each interval reaches the rank-1 tracker's (``lo <= best_hi``); missing (<NA>) where either has no
+    interval (one trial), since no overlap can be stated then.  Plain booleans when every interval exists."""
+    out = lo <= best_hi
+    unknown = lo.isna() | best_hi.isna()
+    return out.astype("boolean").mask(unknown) if unknown.any() else out
 
 
 def informative_scenarios(long: pd.DataFrame, rmse_col: str = "rmse_wrapped_rad") -> dict[str, bool]:
@@ -248,6 +257,11 @@ def mean_rank_note(long: pd.DataFrame) -> str:
             + "; ".join(parts) + ".")
 
 
+def _no_interval_note(long: pd.DataFrame) -> str:
+    """The words for an empty ci_overlaps_best, where some row has one."""
+    return f", empty where there is {NO_INTERVAL}" if long["ci_overlaps_best"].isna().any() else ""
+
+
 def ranking_note(long: pd.DataFrame, results: Sequence[xr.Dataset]) -> str:
     ts = ts_note(long)
     src = sorted({f"{r.attrs['scenario']} ({r.attrs.get('trace_source')})" for r in results if r.attrs.get("trace_source")})
@@ -259,7 +273,7 @@ def ranking_note(long: pd.DataFrame, results: Sequence[xr.Dataset]) -> str:
         "counted on the same error over the whole run. rank_total / rmse_total / total_slip_events: the same for the error of the "
         "tracker's total carrier-phase estimate against theta_d + theta_s (what a receiver's carrier phase delivers; the AR trackers' "
         "theta_d + theta_s estimate, every other tracker's own phase). Rank 1 = lowest RMSE within the scenario (ties share the lower rank); "
-        "ci_overlaps_best: the 95% interval reaches the rank-1 tracker's; near_uniform: RMSE at least "
+        "ci_overlaps_best: the 95% interval reaches the rank-1 tracker's" + _no_interval_note(long) + "; near_uniform: RMSE at least "
         f"{NEAR_UNIFORM:g} x pi/sqrt(3) = {NEAR_UNIFORM * UNIFORM_RMSE:.3g} rad (pi/sqrt(3) is the RMSE of a uniformly distributed wrapped "
         "error: lock on theta_d lost, or a scintillation phase beyond +-pi); informative / informative_total: some tracker of the "
         "scenario is below that level (otherwise the scenario's ranks are order among lost loops and count nowhere). "

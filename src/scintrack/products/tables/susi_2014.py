@@ -13,7 +13,8 @@ the best.  These tables put numbers with 95% intervals on those statements:
   sees the same realisations, so the difference removes the common part);
 * **claims** (``susi_table_claims``): one row per claim and scenario with the
   paired differences it rests on and a verdict (holds / does not hold /
-  inconclusive when a paired interval includes 0);
+  inconclusive when a paired interval includes 0; not evaluated without an
+  interval: from one trial the verdict cannot be stated);
 * **eq. (12) sensitivity** (``susi_table_alpha``): the SAKF with other gain
   weightings ``w = alpha (1 + Phi3/phi_ref)^-gamma`` and without the
   scintillation process noise, beside the AKF and the default SAKF.
@@ -34,6 +35,7 @@ from ...experiments.metrics import mean_with_ci
 from ...labels import tracker_labels
 from ...pipeline import paths
 from ..registry import table
+from .common import NO_INTERVAL, estimate_text
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -129,9 +131,10 @@ def ci(values: np.ndarray, lower: float | None = 0.0) -> tuple[float, float, flo
 
 
 def fmt_ci(m: float, lo: float, hi: float, digits: int = 4) -> str:
+    """``m [lo, hi]`` (empty for a NaN ``m``; words in place of a missing interval, :func:`.common.estimate_text`)."""
     if not np.isfinite(m):
         return ""
-    return f"{m:.{digits}g} [{lo:.{digits}g}, {hi:.{digits}g}]"
+    return estimate_text(m, lo, hi, f".{digits}g")
 
 
 def conditions(ds: xr.Dataset) -> str:
@@ -247,10 +250,13 @@ def verdict(intervals: Sequence[tuple[float, float, float]]) -> str:
 
     holds: every 95% interval lies below 0; does not hold: some interval lies
     above 0 (significantly the other way); inconclusive: otherwise (an
-    interval includes 0).
+    interval includes 0).  Not evaluated: a difference is missing, or has no
+    interval (:data:`NO_INTERVAL`), and the claim is then not stated either way.
     """
-    if not intervals or any(not np.all(np.isfinite(iv)) for iv in intervals):
+    if not intervals or any(not np.isfinite(m) for m, _, _ in intervals):
         return "not evaluated"
+    if any(not np.all(np.isfinite(iv)) for iv in intervals):
+        return f"not evaluated: {NO_INTERVAL}"
     if all(hi < 0 for _, _, hi in intervals):
         return "holds"
     if any(lo > 0 for _, lo, _ in intervals):
@@ -290,7 +296,10 @@ def susi_table_claims(*results: xr.Dataset) -> dict:
             "(intervals are not adjusted for the two comparisons per claim). The chapter's claims are about the discriminator jitter "
             "(its Figs. 4-5, 8); the tracking-error jitter is against the true total phase (dynamics + clock + scintillation), which the chapter "
             "could not measure. " + _jitter_method(results[0]) + " " + _scenario_notes(results))
-    return {"table_claims": (claims_frame(results), f"Susi et al. 2014: do the chapter's claims hold?{_data_title(results)}", note)}
+    frame = claims_frame(results)
+    if frame.filter(like="verdict").apply(lambda col: col.str.endswith(NO_INTERVAL)).any(axis=None):
+        note += f" Not evaluated: {NO_INTERVAL}, so no paired interval and no verdict either way."
+    return {"table_claims": (frame, f"Susi et al. 2014: do the chapter's claims hold?{_data_title(results)}", note)}
 
 
 # --- susi_table_alpha -------------------------------------------------------------------------

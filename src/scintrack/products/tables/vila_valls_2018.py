@@ -18,6 +18,7 @@ from ...labels import tracker_labels
 from ...models.regions import REGIONS
 from ...pipeline import paths
 from ..registry import table
+from .common import interval_text
 from .paper_values import VILA_VALLS_2018_TABLE_I
 
 if TYPE_CHECKING:
@@ -160,7 +161,10 @@ def _steady(res: xr.Dataset, tracker: str, kind: str = "wrapped") -> tuple[float
 
 
 def _window_note(res: xr.Dataset) -> str:
-    return f"Steady state: t >= {res.attrs['steady_state_start_s']:g} s to the end; {int(res['n_trials'])} trials per cell; 95% intervals over trials."
+    n = int(res["n_trials"])
+    if n < 2:
+        return f"Steady state: t >= {res.attrs['steady_state_start_s']:g} s to the end; {n} trial per cell, so no 95% intervals (they need two or more trials)."
+    return f"Steady state: t >= {res.attrs['steady_state_start_s']:g} s to the end; {n} trials per cell; 95% intervals over trials."
 
 
 @table("table02", ["table02_ssm_equivalence"], paper=PAPER, section=SEC_CSM,
@@ -181,7 +185,7 @@ def table02(equivalence: xr.Dataset) -> dict:
         rows.append(
             {
                 "name": label[name], "AR(p)-AR(q)": orders, "SSM": ssm, "AR(p) parameters": params,
-                "steady RMSE wrapped [rad]": round(s, 4), "95% CI": f"[{lo:.4f}, {hi:.4f}]",
+                "steady RMSE wrapped [rad]": round(s, 4), "95% CI": interval_text(lo, hi, ".4f"),
                 "max |RMSE(t) - RMSE_AR13(t)| [rad]": float(np.max(np.abs(rmse - ref))),
             }
         )

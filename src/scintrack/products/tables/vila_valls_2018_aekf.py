@@ -30,6 +30,7 @@ from ...experiments.metrics import mean_with_ci
 from ...labels import tracker_labels
 from ...pipeline import paths
 from ..registry import table
+from .common import estimate_text
 from .paper_values import TRACKERS_5, VILA_VALLS_2018_TABLE_III, VILA_VALLS_2018_TABLE_VII
 
 if TYPE_CHECKING:
@@ -54,7 +55,8 @@ NOTHING_TUNED = "Nothing was tuned toward the paper's values: every setting is t
 
 
 def ci_text(m: float, lo: float, hi: float, digits: int = 3) -> str:
-    return f"{m:.{digits}g} [{lo:.{digits}g}, {hi:.{digits}g}]"
+    """``m [lo, hi]`` to ``digits`` significant digits, or ``m`` with words where there is no interval (:func:`.common.estimate_text`)."""
+    return estimate_text(m, lo, hi, f".{digits}g")
 
 
 def paper_rmse(cell: str, tracker: str) -> float:

@@ -17,6 +17,7 @@ import pandas as pd
 from ...experiments.metrics import mean_ci
 from ...pipeline import paths
 from ..registry import table
+from .common import NO_INTERVAL, estimate_text
 from .paper_values import ZHAO_ENU
 from .twin import twin_rows
 
@@ -54,7 +55,8 @@ def zhao_table_enu(receiver: xr.Dataset) -> dict:
         for r in long.itertuples() if r.tracker == PAPER_TRACKER[r.segment]
     ]
     n = int(receiver.attrs["n_trials"])
-    note = (f"Mean over {n} trials of each trial's ENU mean / std over the segment (1 Hz fixes), with the 95% interval of that mean. "
+    interval = "with the 95% interval of that mean" if n >= 2 else f"with {NO_INTERVAL}"
+    note = (f"Mean over {n} trials of each trial's ENU mean / std over the segment (1 Hz fixes), {interval}. "
             f"Paper: one run; clean = PLL-aided DLL, jammed = MM-aided DLL with bit prediction (ours: IODE check). Synthetic data; "
             f"jammed at {float(receiver.attrs['cn0_jammed_dbhz']):.1f} dB-Hz; uploads: {receiver.attrs['uploads']}.")
     return {
@@ -82,10 +84,10 @@ def zhao_table_ablation(receiver: xr.Dataset) -> dict:
                 if key == "freq_var_jammed":
                     v = np.sqrt(v)
                 m, lo, hi = mean_ci(v)
-                row[label] = f"{m:.3g} [{lo:.3g}, {hi:.3g}]"
+                row[label] = estimate_text(m, lo, hi)
             rows.append(row)
         m, lo, hi = mean_ci(receiver["err3d_rms_jammed"].sel(tracker=tr).values)
-        rows[-1]["3D position RMS jammed [m] (all satellites)"] = f"{m:.3g} [{lo:.3g}, {hi:.3g}]"
+        rows[-1]["3D position RMS jammed [m] (all satellites)"] = estimate_text(m, lo, hi)
     lock = receiver.attrs["lock"]
     note = (f"Mean [95% interval] over {int(receiver.attrs['n_trials'])} trials x satellites of each group. Loss of lock: {lock} "
             "(PLL error modulo pi, MM modulo 2 pi). Position: all four satellites, hence one value per tracker. Synthetic data.")
@@ -111,7 +113,7 @@ def zhao_table_cn0_sweep(*points: xr.Dataset) -> dict:
         for i, cn0 in enumerate(s["cn0"]):
             row = {"tracker": tr, "jammed C/N0 [dB-Hz]": cn0}
             for key, label in (("phase_rmse_jammed", "phase RMSE [rad]"), ("in_lock_jammed", "time in lock"), ("bit_error_jammed", "wrong bits")):
-                row[label] = f"{s[key]['mean'][j, i]:.3g} [{s[key]['lo'][j, i]:.3g}, {s[key]['hi'][j, i]:.3g}]"
+                row[label] = estimate_text(s[key]["mean"][j, i], s[key]["lo"][j, i], s[key]["hi"][j, i])
             rows.append(row)
     note = (f"Mean [95% interval] over {int(points[0].attrs['n_trials'])} trials x {points[0].sizes['prn']} satellites; only the C/N0 after the "
             "onset changes between points (same geometry, clock, message and noise draws). Synthetic data.")
