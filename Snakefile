@@ -17,6 +17,15 @@ from snakemake.utils import min_version
 
 min_version("9.0")
 
+# Snakemake starts each job's script as `<python> <script>` through bash and
+# quotes only the script: an interpreter path with a blank or a shell
+# character fails every job (bash: "No such file or directory", exit 127).
+if set(sys.executable) & set(" \t\n'\"\\$`;&|<>()*?["):
+    sys.exit(
+        f"error: the Python running Snakemake ({sys.executable}) has a blank or shell character in its path, "
+        "so no job could start; move or clone the project (and its .venv) to a path without them and rerun"
+    )
+
 # glibc's allocator keeps freed memory for reuse instead of handing every large
 # numpy temporary back to the kernel and faulting in fresh zeroed pages for the
 # next one (a fifth of the big jobs' CPU was system time otherwise).  Jobs
