@@ -50,7 +50,8 @@ class OutputWriteError(InputError):
     """An output could not be written (disk full, read-only folder, ...); nothing was changed."""
 
 
-def _host() -> str:
+def host_name() -> str:
+    """This host's short name, as temporary files name their writer."""
     return socket.gethostname().split(".")[0].replace("-", "_") or "host"
 
 
@@ -72,7 +73,7 @@ def atomic_target(path: Path, suffix: str = SUFFIX) -> tuple[int, str]:
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{_host()}-{os.getpid()}.", suffix=suffix, dir=path.parent)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{host_name()}-{os.getpid()}.", suffix=suffix, dir=path.parent)
     except OSError as exc:
         raise write_failure(path, exc) from None
     umask = os.umask(0)
@@ -120,14 +121,14 @@ def atomic_bytes(path: str | os.PathLike, data: str | bytes, *, fsync: bool = Fa
     atomic_write(path, write, hold=hold)
 
 
-def _writer_gone(name: str) -> bool:
+def writer_gone(name: str) -> bool:
     """Whether the process named in a temporary file's name (this host only) no longer runs."""
     stem = name[: -len(SUFFIX)]
     parts = stem.rsplit(".", 2)
     if len(parts) != 3 or "-" not in parts[1]:
         return False
     host, _, pid = parts[1].rpartition("-")
-    if host != _host() or not pid.isdigit():
+    if host != host_name() or not pid.isdigit():
         return False
     try:
         os.kill(int(pid), 0)
@@ -145,7 +146,7 @@ def clean_stale(roots: Iterable[str | os.PathLike]) -> list[Path]:
         if not root.is_dir():
             continue
         for tmp in root.rglob(f".*{SUFFIX}"):
-            if tmp.is_file() and _writer_gone(tmp.name):
+            if tmp.is_file() and writer_gone(tmp.name):
                 tmp.unlink(missing_ok=True)
                 removed.append(tmp)
     return removed
