@@ -76,11 +76,17 @@ Choices the spec leaves open, and why:
   counted.  The writer reports the quantisation SNR.  Data and sidecar are
   each written to a temporary file and moved into place with
   ``os.replace``; the sidecar (``<data>.json``) carries the sha256 of the
-  data file, which :func:`read_recording` checks.
+  data file, which :func:`read_recording` checks.  The writer also fills the
+  fields every recording's sidecar has (:mod:`scintrack.signals.recording`):
+  ``iq_sign`` = +1, ``start_time`` (GPS time of the first sample, from
+  ``gps_week`` and ``gps_seconds_of_week``, ``time_scale`` "GPS") and
+  ``source``; the one reader of recordings, ours and real captures alike, is
+  :func:`scintrack.signals.recording.read_recording`, re-exported here.
 """
 
 from __future__ import annotations
 
+import datetime as dt
 import hashlib
 import json
 import math
@@ -92,8 +98,8 @@ import numpy as np
 from scipy import signal
 
 from ...atomic import atomic_bytes
-from ...errors import InputError, one_line
 from ...seeding import rng_for
+from ..recording import IQFormatError, read_recording, sidecar_path  # noqa: F401 (the reader of every recording, re-exported)
 from .ca_code import CHIP_RATE_HZ, CHIPS, ca_code
 from .jamming import effective_cn0_dbhz, spectral_separation
 
@@ -112,11 +118,10 @@ JAMMER_STOPBAND_DB = 60.0
 SIDECAR_KEYS = ("sample_rate_hz", "centre_frequency_hz", "intermediate_frequency_hz", "gps_week", "gps_seconds_of_week",
                 "duration_s", "satellites", "jammer", "seed")
 #: keys the writer fills in
-WRITER_KEYS = ("format", "scale", "scale_rule", "n_samples", "data_file", "sha256", "clipped_values", "quantisation_snr_db")
-
-
-class IQFormatError(InputError):
-    """A recording or its sidecar that :func:`read_recording` cannot accept (missing, truncated, altered)."""
+WRITER_KEYS = ("format", "scale", "scale_rule", "n_samples", "data_file", "sha256", "clipped_values", "quantisation_snr_db",
+               "iq_sign", "start_time", "time_scale")
+SOURCE = "synthetic: scintrack.signals.gps.iq.synthesise"
+GPS_EPOCH = dt.datetime(1980, 1, 6)
 
 
 def code_rate_hz(doppler_hz: np.ndarray | float) -> np.ndarray | float:
@@ -379,10 +384,9 @@ def make_sidecar(svs, *, fs: float, duration_s: float, seed: int, gps_week: int,
             "front_end": "none: 12.5 MS/s complex point sampling of the chips (aliased C/A tails kept)"}
 
 
-def sidecar_path(path: str | os.PathLike) -> Path:
-    """``rec.bin`` -> ``rec.bin.json``."""
-    path = Path(path)
-    return path.with_name(path.name + ".json")
+def gps_time_iso(gps_week: int, gps_seconds_of_week: float) -> str:
+    """GPS time ``gps_week``, ``gps_seconds_of_week`` as ISO 8601 (GPS time scale, no leap seconds), e.g. ``2015-10-07T00:00:00``."""
+    return (GPS_EPOCH + dt.timedelta(weeks=int(gps_week), seconds=float(gps_seconds_of_week))).isoformat()
 
 
 def _atomic_write(path: Path, payload: bytes) -> None:
@@ -430,48 +434,9 @@ def write_recording(path: str | os.PathLike, samples: np.ndarray, sidecar: dict,
     full = {k: v for k, v in sidecar.items() if k not in WRITER_KEYS}
     full.update({"format": FORMAT, "scale": float(scale), "scale_rule": rule, "n_samples": int(samples.size),
                  "data_file": path.name, "sha256": hashlib.sha256(payload).hexdigest(), "clipped_values": clipped,
-                 "quantisation_snr_db": float(qsnr)})
+                 "quantisation_snr_db": float(qsnr), "iq_sign": 1, "time_scale": "GPS",
+                 "start_time": gps_time_iso(sidecar["gps_week"], sidecar["gps_seconds_of_week"])})
+    full.setdefault("source", SOURCE)
     _atomic_write(path, payload)
     _atomic_write(sidecar_path(path), (json.dumps(full, indent=2, sort_keys=True) + "\n").encode())
     return full
-
-
-_F32 = np.finfo(np.float32)
-
-
-def read_recording(path: str | os.PathLike) -> tuple[np.ndarray, dict]:
-    """Samples (complex64, ``int16 / scale``) and sidecar of a recording, after checking format, size and sha256.
-
-    A missing, truncated or altered data file or sidecar raises :class:`IQFormatError` (one line naming the file).
-    """
-    path = Path(path)
-    side = sidecar_path(path)
-    if not path.is_file():
-        raise IQFormatError(f"recording data file {path} does not exist")
-    if not side.is_file():
-        raise IQFormatError(f"recording {path} has no sidecar {side}; write recordings with iq.write_recording")
-    try:
-        meta = json.loads(side.read_bytes())
-    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:  # RecursionError: absurdly deep nesting
-        raise IQFormatError(f"sidecar {side} is not valid JSON ({one_line(exc)}); rewrite it with iq.write_recording") from None
-    if not isinstance(meta, dict):
-        raise IQFormatError(f"sidecar {side} holds a JSON {type(meta).__name__}, not an object; rewrite it with iq.write_recording")
-    missing = [key for key in (*SIDECAR_KEYS, *WRITER_KEYS) if key not in meta]
-    if missing:
-        raise IQFormatError(f"sidecar {side} lacks {missing}")
-    if meta["format"] != FORMAT:
-        raise IQFormatError(f"{side}: format {meta['format']!r} is not {FORMAT!r}")
-    scale = meta["scale"]
-    if not (isinstance(scale, int | float) and not isinstance(scale, bool) and _F32.tiny <= scale <= _F32.max):
-        raise IQFormatError(f"{side}: scale must be a positive number (got {scale!r})")
-    n = meta["n_samples"]
-    if not (isinstance(n, int) and not isinstance(n, bool) and n >= 0):
-        raise IQFormatError(f"{side}: n_samples must be a non-negative integer (got {n!r})")
-    payload = path.read_bytes()
-    if len(payload) != 4 * n:
-        raise IQFormatError(f"{path} holds {len(payload)} bytes but {side} says {n} samples ({4 * n} bytes)")
-    digest = hashlib.sha256(payload).hexdigest()
-    if digest != meta["sha256"]:
-        raise IQFormatError(f"{path} is corrupted or was changed: sha256 {digest} != {meta['sha256']!r} in {side}")
-    iq = np.frombuffer(payload, dtype="<i2").astype(np.float32) / np.float32(scale)
-    return iq.view(np.complex64), meta
