@@ -128,7 +128,7 @@ import numpy as np
 from scipy import fft, stats
 
 from .ca_code import CHIP_RATE_HZ, CHIPS, ca_code
-from .iq import L1_HZ, MS, _samples_per_ms, code_rate_hz
+from .iq import L1_HZ, MS, samples_per_ms, code_rate_hz
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -222,7 +222,7 @@ def _blocks(samples: np.ndarray, fs: float, n_coherent_ms: int, n_noncoherent: i
     """The first ``K`` blocks of ``n_coherent_ms`` ms, shaped (K, n_coherent_ms, P)."""
     if n_coherent_ms < 1 or (n_noncoherent is not None and n_noncoherent < 1):
         raise ValueError(f"n_coherent_ms and n_noncoherent must be >= 1 (got {n_coherent_ms}, {n_noncoherent})")
-    period = _samples_per_ms(fs)
+    period = samples_per_ms(fs)
     n = n_coherent_ms * period
     k = samples.size // n if n_noncoherent is None else int(n_noncoherent)
     if k < 1 or samples.size < n * k:

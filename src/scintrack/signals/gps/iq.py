@@ -288,7 +288,8 @@ class _JammerSource:
         return signal.oaconvolve(ext, self.taps, mode="valid").astype(np.complex64, copy=False)
 
 
-def _samples_per_ms(fs: float) -> int:
+def samples_per_ms(fs: float) -> int:
+    """Whole samples in one millisecond at ``fs`` (a multiple of 1 kHz, else ``ValueError``)."""
     per_ms = fs * MS
     if not fs > 0 or abs(per_ms - round(per_ms)) > 1e-9 * per_ms:
         raise ValueError(f"fs must be a positive multiple of 1 kHz so that each ms holds whole samples (got {fs})")
@@ -320,7 +321,7 @@ def synthesise(svs, fs: float = DEFAULT_FS_HZ, *, duration_s: float, seed: int, 
                jammer: Jammer | None = None) -> np.ndarray:
     """Complex baseband samples (complex64) of satellites + thermal noise + jammer over ``duration_s``."""
     svs = list(svs)
-    per_ms = _samples_per_ms(fs)
+    per_ms = samples_per_ms(fs)
     n = int(round(duration_s * fs))
     if n <= 0:
         raise ValueError(f"duration_s must give at least one sample (got {duration_s})")
