@@ -3,7 +3,8 @@
 * ``python -m scintrack verify ARCHIVE_OR_DIR [--against TREE]``: prints one
   line per problem (a kind word, the member, why: :mod:`scintrack.archive.verify`)
   and exits 1 if there is any; a path that does not exist is one ``error:``
-  line and exit 2; prints ``OK ...`` and exits 0 otherwise.
+  line and exit 2; prints ``OK ...`` (and ``plug-in trackers: ...`` when the
+  bundle's provenance names plug-in tracker types) and exits 0 otherwise.
 * ``python -m scintrack check-config FILE [FILE ...]``: reads config files
   with the project's loader (a YAML error names the file and line) and exits
   2 with that one line; ``repro.py run`` calls it on every ``--configfile``
@@ -63,6 +64,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"verify: {len(problems)} problem(s) in {args.bundle}", file=sys.stderr)
         return 1
     print(f"OK {args.bundle}: every checksum matches" + (f"; results in {args.against} reproduce the archived content hashes" if args.against else ""))
+    from .archive.metadata import bundle_plugin_line
+
+    plugins = bundle_plugin_line(args.bundle)  # code from outside the package that made the results
+    if plugins:
+        print(plugins)
     return 0
 
 

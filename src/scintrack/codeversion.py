@@ -20,6 +20,15 @@ every module of its package at run time (a new tracker registers itself by
 existing).  :data:`DISCOVERS` says so, and the closure of any rule that
 reaches the registry holds the whole package.
 
+Plug-in tracker types (:data:`PLUGIN_GROUP`, ``docs/adding-a-tracker.md``)
+live in other installed distributions, outside any closure.
+:func:`plugin_entry_points` lists them from the installed metadata without
+importing them, and :func:`plugin_code` gives, for the tracker types a rule
+runs, each plug-in's distribution name, version and the SHA-256 of the
+normalised sources of its package (the same normaliser); :func:`with_plugins`
+appends them to a code version, so editing a plug-in reruns exactly the rules
+that run one of its types, and the result's ``code_version`` names it.
+
 The dump depends on the Python version's AST, so a different interpreter
 gives different versions (reruns, never stale results); the locked
 environment fixes the interpreter.
@@ -47,8 +56,10 @@ import ast
 import hashlib
 import json
 import os
+import re
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -113,6 +124,7 @@ def clear_caches() -> None:
     _facts_cached.cache_clear()
     module_file.cache_clear()
     _module_version.cache_clear()
+    _plugin_entries.cache_clear()
 
 
 def clear_disk_cache_memory() -> None:
@@ -305,3 +317,122 @@ def remembered(module: str, name: str, arg: Any, compute: Callable[[], Any], kee
         _DISK_STATE["dirty"] = True
         _save_disk()
     return value
+
+
+# --- plug-in tracker types: code outside the package ---------------------------------
+
+#: entry-point group of plug-in tracker types: ``<type name> = <module>:<class>``
+PLUGIN_GROUP = "scintrack.trackers"
+
+
+@dataclass(frozen=True)
+class PluginEntry:
+    """One entry point of :data:`PLUGIN_GROUP`: the tracker type ``name``, its target and its distribution."""
+
+    name: str
+    value: str
+    distribution: str
+    version: str
+
+    @property
+    def module(self) -> str:
+        return self.value.partition(":")[0].strip()
+
+    def describe(self) -> str:
+        """``entry point 'name = value' of <distribution> <version>`` (for messages)."""
+        return f"entry point '{self.name} = {self.value}' of {self.distribution} {self.version}"
+
+
+def _normalised_name(name: str) -> str:
+    return re.sub(r"[-_.]+", "-", name).lower()
+
+
+@cache
+def _plugin_entries(path: tuple[str, ...]) -> tuple[PluginEntry, ...]:
+    import importlib.metadata as md
+
+    seen: set[str] = set()
+    out = []
+    for dist in md.distributions(path=list(path)):
+        name = dist.metadata["Name"] or ""
+        key = _normalised_name(name)
+        if key in seen:  # a distribution found again later on the path is shadowed, as its modules are
+            continue
+        seen.add(key)
+        for ep in dist.entry_points:
+            if ep.group == PLUGIN_GROUP:
+                out.append(PluginEntry(name=ep.name, value=ep.value, distribution=name, version=str(dist.version)))
+    return tuple(sorted(out, key=lambda e: (e.name, _normalised_name(e.distribution))))
+
+
+def plugin_entry_points(path: Sequence[str] | None = None) -> tuple[PluginEntry, ...]:
+    """Every entry point of :data:`PLUGIN_GROUP` of the distributions on ``path`` (default ``sys.path``), by type name.
+
+    Read from the installed metadata, nothing imported.  A distribution installed twice counts
+    once, the copy earlier on the path (the one whose modules import).  Two distributions may
+    declare the same name: both are listed (the registry refuses the clash).
+    """
+    return _plugin_entries(tuple(str(p) for p in (sys.path if path is None else path)))
+
+
+def plugin_files(entry: PluginEntry, path: Sequence[str] | None = None) -> list[tuple[str, Path]]:
+    """(name inside the plug-in, file) of every module of the top-level package of ``entry``'s module.
+
+    Found by the import system's finders without importing (``path``: search these folders only).
+    Raises :class:`~scintrack.errors.ConfigError` when the module is not installed.
+    """
+    import importlib.machinery
+    import importlib.util
+
+    from .errors import ConfigError
+
+    top = entry.module.split(".")[0]
+    try:
+        spec = importlib.machinery.PathFinder.find_spec(top, list(path)) if path is not None else importlib.util.find_spec(top)
+    except (ImportError, ValueError):
+        spec = None
+    if spec is None or (spec.origin is None and not spec.submodule_search_locations):
+        raise ConfigError(f"plug-in tracker type {entry.name!r}: module {entry.module!r} of its {entry.describe()} is not installed; "
+                          f"reinstall {entry.distribution} (pip install ...) or uninstall it")
+    if spec.submodule_search_locations:
+        files = []
+        for folder in map(Path, spec.submodule_search_locations):
+            files += [(f"{top}/{p.relative_to(folder).as_posix()}", p) for p in folder.rglob("*.py") if "__pycache__" not in p.parts]
+        return sorted(files)
+    return [(Path(spec.origin).name, Path(spec.origin))]
+
+
+def plugin_source_sha256(entry: PluginEntry, path: Sequence[str] | None = None) -> str:
+    """SHA-256 over the names and :func:`normalised_source` digests of :func:`plugin_files` (comments and docstrings do not count)."""
+    h = hashlib.sha256()
+    for name, file in plugin_files(entry, path):
+        h.update(name.encode() + b"\0" + source_digest(file).encode() + b"\n")
+    return h.hexdigest()
+
+
+def plugin_code(types: Iterable[str], path: Sequence[str] | None = None) -> list[dict[str, str]]:
+    """What of the tracker ``types`` is plug-in code: one record per plug-in type among them, sorted by type.
+
+    ``{"type", "entry_point", "distribution", "version", "source_sha256"}``; built-in types give
+    nothing, so a rule without plug-in types has the code version it has without plug-ins.
+    """
+    wanted = set(types)
+    out = []
+    for entry in plugin_entry_points(path):
+        if entry.name in wanted:
+            out.append({"type": entry.name, "entry_point": f"{entry.name} = {entry.value}", "distribution": entry.distribution,
+                        "version": entry.version, "source_sha256": plugin_source_sha256(entry, path)})
+    _save_disk()
+    return out
+
+
+def describe_plugins(records: Iterable[dict[str, str]]) -> str:
+    """``"<distribution> <version> (source sha256 <16 hex>)"`` of each distribution in ``records``, joined by ``"; "``."""
+    seen = dict.fromkeys(f"{r['distribution']} {r['version']} (source sha256 {r['source_sha256'][:16]})" for r in records)
+    return "; ".join(sorted(seen))
+
+
+def with_plugins(version: str, records: Sequence[dict[str, str]]) -> str:
+    """A code version with the plug-in code of ``records`` (:func:`plugin_code`): ``version`` itself without any,
+    else ``"<version> + plug-ins: <describe_plugins>"``."""
+    return f"{version} + plug-ins: {describe_plugins(records)}" if records else version

@@ -17,16 +17,24 @@ difference ends the job with one line, ``source changed during the run``, and
 no output is written.  What ran (the code version and the git state at the
 job's start) is recorded in every result's attributes
 (:func:`scintrack.io.provenance`).
+
+A rule that runs plug-in tracker types (``docs/adding-a-tracker.md``) names
+them (:func:`planned`'s ``trackers``): its code version then also covers each
+plug-in's distribution, version and normalised source
+(:func:`scintrack.codeversion.plugin_code`), is checked the same way, and
+reads ``<version> + plug-ins: <distribution> <version> (source sha256 ...)``
+in the result's ``code_version``.  A rule without plug-in types has the same
+``code`` param as without this mechanism.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
 from . import io, runlog
-from .codeversion import clear_caches, code_version
+from .codeversion import clear_caches, code_version, plugin_code, with_plugins
 from .errors import InputError
 
 
@@ -34,19 +42,29 @@ class CodeChanged(InputError):
     """The package or script changed between planning a job and running (or finishing) it."""
 
 
-def planned(scripts: Path, script: str, *modules: str) -> dict[str, Any]:
+def planned(scripts: Path, script: str, *modules: str, trackers: Iterable[str] = ()) -> dict[str, Any]:
     """The ``code`` param of a rule: the code version of ``scripts/script`` and ``modules``, with what it covers
-    (names relative to the scripts folder and the package, so the param does not depend on the checkout's path)."""
-    return {"version": code_version([Path(scripts) / script, *modules]), "script": script, "modules": list(modules)}
+    (names relative to the scripts folder and the package, so the param does not depend on the checkout's path).
+
+    ``trackers``: the tracker types the rule runs; those that are plug-ins add their code (module docstring)
+    and are listed under ``plugins``.
+    """
+    version = code_version([Path(scripts) / script, *modules])
+    plugins = plugin_code(trackers)
+    out = {"version": with_plugins(version, plugins), "script": script, "modules": list(modules)}
+    if plugins:
+        out["plugins"] = plugins
+    return out
 
 
 def _now(code: Mapping[str, Any], scriptdir: str | Path) -> str:
     clear_caches()  # re-read the sources (the disk cache is keyed by the files' bytes, so it cannot be stale)
-    return code_version([Path(scriptdir) / code["script"], *code["modules"]])
+    version = code_version([Path(scriptdir) / code["script"], *code["modules"]])
+    return with_plugins(version, plugin_code(p["type"] for p in code.get("plugins", ())))
 
 
 def _refuse(code: Mapping[str, Any], now: str, when: str) -> CodeChanged:
-    covers = ", ".join([code["script"], *code["modules"]])
+    covers = ", ".join([code["script"], *code["modules"], *dict.fromkeys(p["distribution"] for p in code.get("plugins", ()))])
     return CodeChanged(f"source changed during the run: the code of {covers} is {now} {when}, the rule was planned with "
                        f"{code['version']}; nothing was written, rerun snakemake")
 

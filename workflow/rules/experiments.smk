@@ -5,7 +5,9 @@
 # exactly (scintrack.experiments.shard_job).  The rule gets every value its
 # results depend on (scenarios, tracker specs, the tracking settings those
 # trackers read, seed, sampling, trials, shards) as params, so a config change
-# reruns the experiments it touches.
+# reruns the experiments it touches.  Its code version covers the plug-in
+# tracker types it runs (scintrack.jobcode.planned), so editing a plug-in
+# reruns exactly the experiments that run one of its types.
 
 
 for _experiment in config["experiments"]:
@@ -19,7 +21,7 @@ for _experiment in config["experiments"]:
             [paths.exp_result(_experiment, s) for s in config["experiments"][_experiment]["scenarios"]],
         params:
             runs=experiment_runs(_experiment),
-            code=code("run_experiment.py"),
+            code=planned_code(SCRIPTS, "run_experiment.py", trackers=P.tracker_types(config, config["experiments"][_experiment]["trackers"])),
         log:
             f"logs/experiments/{_experiment}.log",
         benchmark:

@@ -36,3 +36,11 @@ rule table_checksums:
         "logs/tables/checksums.log",
     script:
         "../scripts/checksums.py"
+
+
+rule ranking:
+    """The cross-paper ranking alone: table_ranking and fig_ranking (with its gallery record) and the experiments they read.
+    `snakemake --cores 2 ranking --configfile my_trackers.yaml` ranks the trackers an overlay adds (docs/adding-a-tracker.md)."""
+    input:
+        list(TABLES["table_ranking"].outputs(config).values()),
+        list(FIGURES["fig_ranking"].outputs(config).values()),

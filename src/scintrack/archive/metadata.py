@@ -3,6 +3,13 @@ Workflow Run RO-Crate (``ro-crate-metadata.json``, written directly as JSON-LD:
 the profile needs a handful of entities, not a library).
 
 Nothing here reads the clock: the same tree gives the same bytes.
+
+Plug-in tracker types (``docs/adding-a-tracker.md``) are code outside the
+package: ``provenance.json`` lists those the config's trackers use
+(``plugin_trackers``: type, entry point, distribution, version and the
+SHA-256 of the plug-in's normalised sources, :func:`plugin_trackers`), and
+``verify`` prints them (:func:`bundle_plugin_line`).  A bundle without
+plug-ins has no such key, so its bytes do not depend on this.
 """
 
 from __future__ import annotations
@@ -62,7 +69,51 @@ def provenance(*, config: Mapping[str, Any], git: Mapping[str, Any], lock_text: 
         "environment_lock_sha256": sha256_bytes(lock_text.encode()),
         "timings_per_job": timings,
     }
+    plugins = plugin_trackers(config)
+    if plugins:
+        doc["plugin_trackers"] = plugins
     return (json.dumps(doc, indent=2, sort_keys=True, default=str) + "\n").encode()
+
+
+def plugin_trackers(config: Mapping[str, Any]) -> list[dict[str, str]]:
+    """The plug-in tracker types of the config's trackers, as installed now (:func:`scintrack.codeversion.plugin_code`)."""
+    from ..codeversion import plugin_code
+
+    trackers = config.get("trackers") or {}
+    return plugin_code(str(spec["type"]) for spec in trackers.values() if isinstance(spec, Mapping) and "type" in spec)
+
+
+def plugin_line(provenance_json: bytes) -> str | None:
+    """``"plug-in trackers: <distribution> <version> (source sha256 <16 hex>); ..."`` of a bundle's ``provenance.json``,
+    None when it names no plug-in (or cannot be read: ``verify`` reports that)."""
+    from ..codeversion import describe_plugins
+
+    try:
+        records = json.loads(provenance_json).get("plugin_trackers") or []
+        text = describe_plugins(records)
+    except (ValueError, AttributeError, TypeError, KeyError):
+        return None
+    return f"plug-in trackers: {text}" if text else None
+
+
+def bundle_plugin_line(bundle: str | Path) -> str | None:
+    """:func:`plugin_line` of the ``provenance.json`` of a bundle (tar.gz or unpacked folder), read without extracting
+    (a tar.gz is read only up to that member, which sorts before the results)."""
+    import tarfile
+
+    path = Path(bundle)
+    if path.is_dir():
+        member = path / "provenance.json"
+        return plugin_line(member.read_bytes()) if member.is_file() and not member.is_symlink() else None
+    try:
+        with tarfile.open(path, "r:gz") as tar:
+            for info in tar:
+                if info.isfile() and info.name.count("/") == 1 and info.name.endswith("/provenance.json"):
+                    handle = tar.extractfile(info)
+                    return plugin_line(handle.read()) if handle is not None else None
+    except (OSError, tarfile.TarError, EOFError):
+        return None
+    return None
 
 
 def citation_cff(version: str, commit: str) -> bytes:

@@ -90,11 +90,46 @@ OUTPUT_NAMES = {
 class Tracker(Protocol):
     """A carrier tracker type: complex prompts (trials, epochs) in, theta_d estimates out.
 
-    A tracker class subclasses this protocol, defines the class attributes
-    ``SCHEMA``, ``TRACKING_KEYS`` and ``PROVIDES`` and the methods
-    ``from_spec``, ``label``, ``run`` and ``reference``; it inherits
-    ``design_point``, ``needs_noise_reference`` and :meth:`request` as defaults
-    and overrides them where it differs.
+    This is the whole contract between a tracker and the pipeline, for the
+    built-in types and for plug-ins alike (``docs/adding-a-tracker.md``;
+    :func:`scintrack.testing.check_tracker` checks it on a type).
+
+    A tracker class subclasses this protocol and defines
+
+    * ``SCHEMA`` (class attribute): JSON-Schema ``properties`` of the keys its
+      config entry may hold besides ``type`` and ``label`` (the registry adds
+      those two and refuses any other key, one line naming it);
+    * ``TRACKING_KEYS`` (class attribute): every key of the shared ``tracking:``
+      section that ``from_spec`` reads, and no other.  An experiment is handed
+      only these (:mod:`scintrack.pipeline.params`), so a key read but not
+      declared is missing in the workflow, and changing a key not declared
+      does not rerun the experiment.  Optional ``SPEC_OVERRIDES``
+      ``{spec key: tracking key}``: a spec that sets the key does not read the
+      shared value (:func:`.registry.tracking_keys`);
+    * ``PROVIDES`` (class attribute): the optional outputs ``run`` can give, names of
+      :data:`OUTPUT_NAMES` (the runner reads ``total_phase``, ``theta_s``,
+      ``s4_hat``, ``discriminator``, ``frequency_hz`` and the SAKF monitors;
+      the others are for tests and figures);
+    * :meth:`from_spec`, :meth:`label`, :meth:`run`, and :meth:`reference`
+      (required of the package's own trackers, optional for a plug-in: when
+      defined, the conformance check compares ``run`` with it).
+
+    It inherits ``design_point``, ``needs_noise_reference`` and
+    :meth:`request` as defaults and overrides them where it differs.
+
+    What ``run`` receives: ``y`` complex128 (trials, epochs), C-contiguous,
+    the prompt correlator outputs at the context's ``ts`` (amplitude about
+    ``tracking.amplitude``, noise per C/N0; pilot signal on the CSM scenarios,
+    data bits on the GPS channel); ``init`` the acquisition values per trial
+    (:class:`TrackInit`).  It must not modify either.  What it returns: a
+    :class:`TrackOutput` whose ``theta_d`` is float (trials, epochs), finite,
+    the estimated dynamics phase at each epoch in rad (for a tracker without a
+    scintillation model: its carrier phase), and whose ``extras`` are exactly
+    the outputs :meth:`request` returned, each (trials, epochs) (``cov_fail_epoch``:
+    (trials,)), finite except where :data:`scintrack.experiments.guards.NONFINITE_ALLOWED`
+    says.  Trials are independent: trial k's outputs are the same, bit for
+    bit, in any batch and position.  A tracker holds settings only, no run
+    state: one built tracker runs many batches.
     """
 
     #: JSON-Schema ``properties`` of the type's spec keys (:mod:`.registry` adds ``type`` and ``label``)
@@ -114,25 +149,35 @@ class Tracker(Protocol):
     def from_spec(cls, spec: Mapping[str, Any], context: TrackerContext) -> Tracker:
         """The tracker of the config entry ``spec`` (``config["trackers"][name]``).
 
-        Values the spec does not set come from ``context`` (only the ``tracking``
-        keys of ``TRACKING_KEYS``).  Raises ValueError for a spec it cannot build.
+        ``spec`` has passed the type's ``SCHEMA``.  Values the spec does not set
+        come from ``context`` (:class:`TrackerContext`: ``ts``, ``scenario``,
+        ``lut``, ``trace_set`` and only the ``tracking`` keys of
+        ``TRACKING_KEYS``).  Raises ValueError for a spec it cannot build (the
+        registry adds the tracker's name).  Pure: the same spec and context give
+        an equal tracker.
         """
         ...
 
     @staticmethod
     def label(name: str, spec: Mapping[str, Any]) -> str:
-        """Plain-text name of a tracker of ``spec`` in figures and tables (a spec's ``label`` key overrides it)."""
+        """Plain-text name of a tracker of ``spec`` in figures and tables: one short line, derived from the spec
+        only (``name`` is the config name; a spec's ``label`` key overrides the result, :func:`.registry.label`)."""
         ...
 
     def run(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
-        """The compiled filter: ``theta_d`` (trials, epochs) and the optional outputs of :meth:`request`.
+        """The filter the experiments run: ``theta_d`` (trials, epochs) and the optional outputs of :meth:`request`.
 
-        Trials are independent: a trial's outputs do not depend on the others in the batch.
+        ``y``: complex prompts (trials, epochs); ``init``: acquisition values per trial.  Trials are
+        independent: a trial's outputs do not depend on the others in the batch (class docstring).
         """
         ...
 
     def reference(self, y: np.ndarray, init: TrackInit) -> TrackOutput:
-        """The textbook numpy form of the same filter (the test oracle of :meth:`run`), the same outputs."""
+        """The textbook numpy form of the same filter (the test oracle of :meth:`run`), the same outputs.
+
+        Agrees with :meth:`run` to rounding (:func:`scintrack.testing.check_tracker` compares them);
+        one trial-vectorised time loop with the literature's names (F, Q, H, R, P, K).
+        """
         ...
 
     def request(self, wanted: Collection[str]) -> frozenset[str]:

@@ -22,23 +22,40 @@ Every module of the ``scintrack.trackers`` package is imported on first use
 (:func:`_load`), so a new tracker module registers itself by existing: no list
 to edit.  (Code versions know this: :mod:`scintrack.codeversion` counts the
 whole package for any rule that imports this registry.)  A module imported by
-anybody else (a test, a plug-in) registers its types the same way.  The config schema
+anybody else (a test) registers its types the same way.  The config schema
 (``workflow/schemas/config.schema.yaml``) only requires ``type``; the
 per-type keys are checked by :func:`validate_specs` against the fragments.
+
+Plug-ins: an installed distribution declares a tracker type as an entry point
+of the group ``scintrack.trackers`` (``<type name> = <module>:<class>``,
+:data:`scintrack.codeversion.PLUGIN_GROUP`); :func:`load_plugins`, part of
+the first use, registers each under its entry-point name with the same
+checks as :func:`register`, so ``type: <name>`` then works like a built-in
+type.  A name that clashes (with a built-in type or another distribution's
+entry point), a module that fails to import or a target that is not a
+tracker class is a :class:`PluginError`: one line naming the distribution
+and the entry point.  Their code enters code versions through
+:func:`scintrack.codeversion.plugin_code`.
 """
 
 from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
+from ..errors import ConfigError
 from .base import Tracker, TrackerContext
 
 __all__ = [
-    "TrackerContext", "TrackerType", "build", "from_package", "get", "known_types", "label", "register", "spec_schema", "tracking_keys", "validate_specs",
+    "PluginError", "TrackerContext", "TrackerType", "build", "from_package", "get", "known_types", "label", "load_plugins", "register", "spec_schema",
+    "tracking_keys", "validate_specs",
 ]
+
+
+class PluginError(ConfigError):
+    """An installed plug-in tracker type cannot be used (a name clash, an import failure, not a tracker class); one line."""
 
 
 @dataclass(frozen=True)
@@ -49,6 +66,8 @@ class TrackerType:
     label: Callable[[str, Mapping[str, Any]], str]
     schema: Mapping[str, Any]
     tracking_keys: tuple[str, ...]
+    #: the entry point of a plug-in type (:class:`scintrack.codeversion.PluginEntry`); None for the others
+    plugin: Any = None
 
 
 _TYPES: dict[str, TrackerType] = {}
@@ -84,6 +103,10 @@ def _defines(cls: type, attr: str) -> bool:
 
 
 def _load() -> None:
+    """Import every module of this package, then register the installed plug-ins (:func:`load_plugins`).
+
+    A plug-in that fails raises :class:`PluginError` on this and every later use.
+    """
     global _loaded
     if not _loaded:
         import pkgutil
@@ -91,7 +114,72 @@ def _load() -> None:
         package = __name__.rpartition(".")[0]
         for info in pkgutil.iter_modules(importlib.import_module(package).__path__):
             importlib.import_module(f"{package}.{info.name}")
+        load_plugins()
         _loaded = True
+
+
+def load_plugins(path=None) -> list[str]:
+    """Register the tracker type of every entry point of ``scintrack.trackers`` on ``path`` (default ``sys.path``).
+
+    Returns the type names registered.  Checks, in this order, each failure one
+    :class:`PluginError` line naming the distribution and the entry point: the
+    name is declared by one distribution only and is not a type of this package
+    (nor one registered by other code); the target imports; it is a class that
+    :func:`register` accepts.  A target whose module registers itself under the
+    same name with ``@register`` is the same type (no clash).
+    """
+    from ..codeversion import PLUGIN_GROUP, plugin_entry_points
+
+    entries = plugin_entry_points(path)
+    by_name: dict[str, list] = {}
+    for entry in entries:
+        by_name.setdefault(entry.name, []).append(entry)
+    for name, group in by_name.items():
+        if len(group) > 1:
+            raise PluginError(f"plug-in tracker type {name!r} is declared twice in the entry-point group {PLUGIN_GROUP}: "
+                              f"{' and '.join(e.describe() for e in group)}; rename the entry point in one package's pyproject.toml and reinstall it, "
+                              "or uninstall one of them")
+    done = []
+    for entry in entries:
+        old = _TYPES.get(entry.name)
+        if old is not None and _in_package(old.cls):
+            raise PluginError(f"plug-in tracker type {entry.name!r} of the {entry.describe()} clashes with the built-in type of "
+                              f"{old.cls.__module__}; rename the entry point in {entry.distribution}'s pyproject.toml and reinstall it, "
+                              f"or uninstall {entry.distribution}")
+        try:
+            target = _load_entry(entry)
+        except Exception as exc:  # noqa: BLE001 (any failure of foreign code is reported as the plug-in's)
+            detail = " ".join(f"{type(exc).__name__}: {exc}".split())
+            raise PluginError(f"plug-in tracker type {entry.name!r} fails to import ({detail}): {entry.describe()}; "
+                              f"fix or reinstall {entry.distribution}, or uninstall it") from None
+        if not isinstance(target, type) or Tracker not in target.__mro__:
+            raise PluginError(f"plug-in tracker type {entry.name!r}: the {entry.describe()} names {target!r}, not a subclass of "
+                              f"scintrack.trackers.base.Tracker; point it at the tracker class (module:Class) and reinstall {entry.distribution}")
+        current = _TYPES.get(entry.name)
+        if current is not None and current.cls is not target:
+            raise PluginError(f"plug-in tracker type {entry.name!r} of the {entry.describe()} clashes with the type registered by "
+                              f"{current.cls.__module__}.{current.cls.__qualname__}; rename the entry point or the @register name and reinstall {entry.distribution}")
+        try:
+            register(entry.name)(target)
+        except (TypeError, ValueError) as exc:
+            raise PluginError(f"plug-in tracker type {entry.name!r} of the {entry.describe()} is not a complete tracker ({exc}); "
+                              "see the Tracker protocol in scintrack/trackers/base.py and run scintrack.testing.check_tracker on it") from None
+        _TYPES[entry.name] = replace(_TYPES[entry.name], plugin=entry)
+        done.append(entry.name)
+    return done
+
+
+def _load_entry(entry):
+    module = importlib.import_module(entry.module)
+    attr = entry.value.partition(":")[2].strip()
+    target = module
+    for part in attr.split(".") if attr else ():
+        target = getattr(target, part)
+    return target
+
+
+def _in_package(cls: type) -> bool:
+    return cls.__module__.startswith(__name__.rpartition(".")[0] + ".")
 
 
 def known_types() -> list[str]:
@@ -109,7 +197,12 @@ def get(type_name: str) -> TrackerType:
 
 def from_package(type_name: str) -> bool:
     """True when the type is defined by a module of this package (not registered by a test or a plug-in)."""
-    return get(type_name).cls.__module__.startswith(__name__.rpartition(".")[0] + ".")
+    return _in_package(get(type_name).cls)
+
+
+def plugin_of(type_name: str):
+    """The entry point (:class:`scintrack.codeversion.PluginEntry`) of a plug-in type, None for any other type."""
+    return get(type_name).plugin
 
 
 def build(name: str, spec: Mapping[str, Any], context: TrackerContext) -> Tracker:
@@ -177,8 +270,6 @@ def validate_specs(trackers: Mapping[str, Any], source: str = "config/config.yam
     the rule it breaks and where to fix it.
     """
     import jsonschema
-
-    from ..errors import ConfigError
 
     fix = f"fix it in {source} or your --configfile/--config overlay"
     for name, spec in trackers.items():
