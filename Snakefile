@@ -95,6 +95,11 @@ include: "workflow/rules/susi.smk"
 include: "workflow/rules/gps_jamming.smk"
 
 
+# Real GPS L1 recordings (Pocket SDR, GNSS-SDR) and the SKYDEL-like segments
+# through one chain: reader, acquisition, tracking (docs/real-signals.md).
+include: "workflow/rules/real_signals.smk"
+
+
 # Figures and tables of every paper (declared next to their functions), the
 # paper-vs-reproduced page, the checksummed bundle and its verification.
 include: "workflow/rules/figures.smk"

@@ -25,7 +25,7 @@ from scintrack.archive.tarball import SUMS, sums_text
 from scintrack.archive.verify import verify
 from scintrack.config import load_config
 from scintrack.io import hash_object, open_dataset
-from scintrack.pipeline import params
+from scintrack.pipeline import params, paths
 from scintrack.products import products
 
 pytestmark = pytest.mark.pipeline
@@ -59,7 +59,8 @@ def test_fresh_clone_plans_the_whole_dag_for_archive(tmp_path):
         "zhao_bit_prediction": 1, "zhao_channel": len(config["gps_jamming"]["prns"]), "zhao_receiver": 1,
         "zhao_cn0_sweep_point": len(config["zhao_receiver"]["cn0_sweep"]["cn0_dbhz"]),
         "susi_surrogate": len(config["susi_2014"]["traces"]), "susi_indices": len(params.susi_scenarios(config)),
-        "vv_floors": 1,
+        "vv_floors": 1, "susi_jitter_bound": 1, "susi_biscef_indices": 1,
+        "real_acquisition": len(paths.signal_recordings(config)), "real_tracking": len(config["real_signals"]["tracked"]),
         **({"ar_lut_wrapped": 1} if any(e.get("lut") == "wrapped" for e in exps) else {}),
         **{name: 1 for name in products()},  # every registered figure and table
     }

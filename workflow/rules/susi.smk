@@ -42,3 +42,45 @@ rule susi_indices:
         runtime=RES.runtime("susi_indices"),
     script:
         "../scripts/susi_indices.py"
+
+
+rule susi_biscef_indices:
+    """REAL Septentrio scintillation indices (BiScEF, Tromso and Ny-Alesund, 2023-01-15): GPS L1 rows at elevation >= 20 deg and the minute with the largest Phi60."""
+    input:
+        **{entry: repo_path(spec["path"]) for entry, spec in P.susi_biscef(config)["files"].items()},
+    output:
+        P.SUSI_BISCEF_INDICES,
+    params:
+        run=P.susi_biscef(config),
+        code=code("biscef_indices.py"),
+    log:
+        "logs/susi_2014/biscef_indices.log",
+    benchmark:
+        "results/benchmarks/susi_biscef_indices.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("susi_biscef_indices"),
+        runtime=RES.runtime("susi_biscef_indices"),
+    script:
+        "../scripts/biscef_indices.py"
+
+
+rule susi_jitter_bound:
+    """The smallest 1-ms discriminator jitter a linear causal tracker can reach on each scenario of the chapter run (Kolmogorov-Szego and Wiener bounds) and the best third-order loop (2-40 Hz); the jitter table shows them beside its cells."""
+    input:
+        traces=[paths.scenario_trace_path(config, sc) for sc in P.susi_jitter_bound(config)["scenarios"]],
+    output:
+        P.SUSI_JITTER_BOUND,
+    params:
+        run=P.susi_jitter_bound(config),
+        code=code("jitter_bound.py"),
+    log:
+        "logs/susi_2014/jitter_bound.log",
+    benchmark:
+        "results/benchmarks/susi_jitter_bound.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("susi_jitter_bound"),
+        runtime=RES.runtime("susi_jitter_bound"),
+    script:
+        "../scripts/jitter_bound.py"

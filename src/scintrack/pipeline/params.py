@@ -40,6 +40,12 @@ def tracker_specs(config: Mapping[str, Any], names) -> dict[str, Any]:
     return {name: dict(config["trackers"][name]) for name in names}
 
 
+def tracker_types(config: Mapping[str, Any], names) -> list[str]:
+    """The tracker types of the named trackers, sorted: what a rule runs, for the plug-in part of its code
+    version (:func:`scintrack.jobcode.planned`; a code fact, not a config value, so not in the params)."""
+    return sorted({str(config["trackers"][name]["type"]) for name in names})
+
+
 def tracking_slice(config: Mapping[str, Any], names) -> dict[str, Any]:
     """The ``tracking`` keys that the scenario, the metrics (:data:`scintrack.settings.EXPERIMENT_KEYS`) and the named trackers read."""
     tracking = config["tracking"]
@@ -141,6 +147,20 @@ def susi_indices(config: Mapping[str, Any], scenario: str) -> dict[str, Any]:
     }
 
 
+#: the real Septentrio index rows (both stations, GPS, elevation >= the mask) and the chosen event
+SUSI_BISCEF_INDICES = f"{paths.SUSI_RESULTS}/biscef_indices.nc"
+
+
+def susi_biscef(config: Mapping[str, Any]) -> dict[str, Any]:
+    """The real BiScEF index rows and the event chosen from them: each file with its registry sha256, the
+    elevation mask and the constellation (:mod:`scintrack.data.biscef`; the files are tracked, not configured)."""
+    from ..data.biscef import ELEVATION_MIN_DEG, file_params
+    from ..project import project_file
+
+    return {"files": file_params(project_file(config["real_traces"]["registry"])), "elevation_min_deg": ELEVATION_MIN_DEG,
+            "constellation": "GPS", "signal": "L1 C/A"}
+
+
 def experiment_like(config: Mapping[str, Any], scenario: str, trackers) -> dict[str, Any]:
     """The params of an experiment of ``trackers`` on ``scenario`` (one trial)."""
     fake = {**config, "experiments": {"_": {"scenarios": [scenario], "trackers": list(trackers), "trials": 1, "shards": 1}}}
@@ -154,6 +174,22 @@ def susi_scenarios(config: Mapping[str, Any]) -> list[str]:
     """The trace scenarios of the experiments (Susi 2014's), in config order."""
     used = {sc for exp in config["experiments"].values() for sc in exp["scenarios"]}
     return [name for name, sc in config["scenarios"].items() if "trace" in sc and name in used]
+
+
+#: the jitter bound of the Susi chapter's scenarios (rule susi_jitter_bound, read by susi_table_jitter)
+SUSI_JITTER_BOUND = f"{paths.SUSI_RESULTS}/jitter_bound.nc"
+
+
+def susi_jitter_bound(config: Mapping[str, Any]) -> dict[str, Any]:
+    """The jitter bound of each scenario of the Susi chapter run (``susi_chapter``): the scenario, its trace,
+    Ts, seed and the ``tracking`` values that set its C/N0 and jitter windows; no tracker."""
+    scenarios = config["experiments"].get("susi_chapter", {}).get("scenarios", [])
+    out = {}
+    for name in scenarios:
+        sc = dict(config["scenarios"][name])
+        out[name] = {"scenario": sc, "trace": susi_trace(config, sc["trace"]["name"]), "tracking": tracking_slice(config, []),
+                     "ts": float(sc.get("ts", config["sampling"]["ts"]))}
+    return {"scenarios": out, "seed": int(config["seed"])}
 
 
 def floors(config: Mapping[str, Any], scenario: str) -> dict[str, Any]:
@@ -288,6 +324,29 @@ def zhao_sweep(config: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+# --- Real GPS recordings (docs/real-signals.md) ----------------------------------------
+
+
+def real_acquisition(config: Mapping[str, Any], recording: str) -> dict[str, Any]:
+    """One recording's acquisition: ``real_signals.acquisition`` updated by the recording's own settings
+    (``real_signals.recordings.<name>``, or ``real_signals.synthetic`` for a synthetic segment), and for a
+    synthetic segment the params of the IQ recording it reads.  A real capture is identified by its name;
+    its bytes are checked against its sidecar's sha256 when read."""
+    rs = config["real_signals"]
+    synthetic = recording in paths.SYNTHETIC_SEGMENTS
+    own = rs["synthetic"] if synthetic else rs["recordings"].get(recording) or {}
+    out: dict[str, Any] = {"recording": recording, "acquisition": {**dict(rs["acquisition"]), **dict(own)}}
+    if synthetic:
+        out["iq"] = gps_iq(config)
+    return out
+
+
+def real_tracking(config: Mapping[str, Any], recording: str) -> dict[str, Any]:
+    """Tracking of one recording: its acquisition's params and ``real_signals.tracking`` (the loop settings).
+    The list of tracked recordings (``real_signals.tracked``) is not a value of any one result."""
+    return {**real_acquisition(config, recording), "tracking": dict(config["real_signals"]["tracking"])}
+
+
 def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     """Every result file of the default run -> the params it depends on."""
     out: dict[str, dict[str, Any]] = {paths.AR_LUT: ar_lut(config), paths.VV_DIAGNOSTICS: ar_diagnostics(config)}
@@ -305,6 +364,8 @@ def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
         out[paths.floors_path(scenario)] = floors(config, scenario)
     for scenario in susi_scenarios(config):
         out[paths.susi_indices_path(scenario)] = susi_indices(config, scenario)
+    out[SUSI_BISCEF_INDICES] = susi_biscef(config)
+    out[SUSI_JITTER_BOUND] = susi_jitter_bound(config)
     out[paths.ZHAO_CN0] = zhao_cn0(config)
     out[paths.ZHAO_SPECTRUM] = zhao_spectrum(config)
     out[paths.ZHAO_BIT_PREDICTION] = zhao_bit_prediction(config)
@@ -313,4 +374,8 @@ def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     out[paths.ZHAO_RECEIVER] = zhao_receiver(config)
     for cn0 in config["zhao_receiver"]["cn0_sweep"]["cn0_dbhz"]:
         out[paths.zhao_sweep_point(cn0)] = zhao_sweep(config)
+    for recording in paths.signal_recordings(config):
+        out[paths.real_acquisition_path(recording)] = real_acquisition(config, recording)
+    for recording in config["real_signals"]["tracked"]:
+        out[paths.real_tracking_path(recording)] = real_tracking(config, recording)
     return dict(sorted(out.items()))

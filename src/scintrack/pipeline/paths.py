@@ -148,3 +148,44 @@ def gps_iq_paths(config: Mapping[str, Any]) -> dict[str, str]:
         out[f"{seg}_data"] = f"{folder}/{seg}.bin"
         out[f"{seg}_sidecar"] = f"{folder}/{seg}.bin.json"
     return out
+
+
+# --- Real GPS recordings and the synthetic segments through the same chain ---------
+
+REAL_SIGNALS_RESULTS = "results/real_signals"
+#: recording name -> segment of the SKYDEL-like IQ recording (rule gps_iq_recording) that the real-signal chain also runs on
+SYNTHETIC_SEGMENTS = {"synthetic_clean": "clean", "synthetic_jammed": "jammed"}
+
+
+def real_recordings(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    """The raw-sample recordings of the dataset registry (``real_traces.registry``): the entries with a ``sidecar``,
+    name -> entry (``path``, ``sidecar``, ``sha256``, relative to the project)."""
+    from ..data.registry import read_registry
+    from ..project import project_file
+
+    datasets = read_registry(project_file(config["real_traces"]["registry"]))["datasets"]
+    return {name: dict(entry) for name, entry in datasets.items() if isinstance(entry, dict) and "sidecar" in entry}
+
+
+def signal_recordings(config: Mapping[str, Any]) -> list[str]:
+    """Every recording the real-signal acquisition runs on: the registry's real recordings, then the synthetic segments."""
+    return [*real_recordings(config), *SYNTHETIC_SEGMENTS]
+
+
+def signal_recording_files(config: Mapping[str, Any], recording: str) -> dict[str, str]:
+    """``data`` and ``sidecar`` of a recording: the registry's paths (project-relative) or the gps_iq_recording outputs."""
+    if recording in SYNTHETIC_SEGMENTS:
+        iq = gps_iq_paths(config)
+        return {"data": iq[f"{SYNTHETIC_SEGMENTS[recording]}_data"], "sidecar": iq[f"{SYNTHETIC_SEGMENTS[recording]}_sidecar"]}
+    entry = real_recordings(config)[recording]
+    return {"data": str(entry["path"]), "sidecar": str(entry["sidecar"])}
+
+
+def real_acquisition_path(recording: str) -> str:
+    """The acquisition result of one recording (``recording`` may be the wildcard ``"{recording}"``)."""
+    return f"{REAL_SIGNALS_RESULTS}/acquisition/{recording}.nc"
+
+
+def real_tracking_path(recording: str) -> str:
+    """The tracking result of one recording (``recording`` may be the wildcard ``"{recording}"``)."""
+    return f"{REAL_SIGNALS_RESULTS}/tracking/{recording}.nc"

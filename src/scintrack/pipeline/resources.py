@@ -55,6 +55,8 @@ MEASURED: dict[str, tuple[float, float]] = {
     "trace_tracking": (550.1, 21.4),  # the static (9.1 s) and the dynamics (12.3 s) experiment of one event, measured as separate jobs
     "susi_surrogate": (272.1, 28.7),
     "susi_indices": (332.7, 8.3),
+    "susi_biscef_indices": (113.1, 1.6),
+    "susi_jitter_bound": (433.4, 14.5),
     "gps_jamming_dataset": (407.3, 5.6),
     "gps_iq_recording": (389.2, 2.1),
     "zhao_cn0_estimates": (350.5, 1.8),
@@ -63,6 +65,8 @@ MEASURED: dict[str, tuple[float, float]] = {
     "zhao_receiver": (374.1, 2.7),
     "zhao_bit_prediction": (242.5, 2.7),  # one run of the job on the full dataset
     "zhao_cn0_sweep_point": (1353.5, 89.4),
+    "real_acquisition": (182.6, 14.2),  # the 12-MHz capture's search
+    "real_tracking": (380.9, 11.1),  # the 0.5-s capture's seven satellites
 }
 
 # Blocks of trials of an experiment's job (rule tracking_<experiment>), fitted

@@ -17,7 +17,9 @@ Sec. VI-E outputs (``trace=True``) get ``_surrogate`` appended to every file
 stem when the traces are the synthetic surrogate; a product that reads other
 traces (Susi 2014's) says when it does with ``surrogate=`` (a function of
 the config), with the same effect.  Figures drawn from the synthetic
-SKYDEL-like dataset (Zhao et al.'s paper) get ``_synthetic``.
+SKYDEL-like dataset (Zhao et al.'s paper) get ``_synthetic``.  Products of the
+real GPS recordings (:data:`REAL_PAPER`, data kind "real") get ``_real`` on
+every file stem, figures and tables alike.
 
 A figure also declares what the gallery (:mod:`scintrack.products.gallery`)
 shows beside it: the paper's figure number (``number``; None for a figure the
@@ -52,13 +54,17 @@ PRODUCT_MODULES = (
     "scintrack.products.tables.ranking",
     "scintrack.products.figures.vila_valls_2018_aekf",
     "scintrack.products.tables.vila_valls_2018_aekf",
+    "scintrack.products.figures.real_signals",
+    "scintrack.products.tables.real_signals",
 )
 
 #: Report category of each paper (``Product.paper`` -> title).
 PAPERS = {
     "vila_valls_2018": "Vila-Valls 2018", "zhao_jamming": "Zhao et al. (wideband jamming)", "susi_2014": "Susi et al. 2014",
-    "cross_paper": "All trackers on all scenarios",
+    "cross_paper": "All trackers on all scenarios", "real_signals": "Real GPS recordings",
 }
+#: the report category of the real GPS recordings (no paper): its products are drawn from real data
+REAL_PAPER = "real_signals"
 
 Config = Mapping[str, Any]
 
@@ -117,6 +123,8 @@ class Product:
         """What the product is drawn from (one of :data:`DATA_KINDS`)."""
         if self.paper == "cross_paper":
             return "mixed"
+        if self.paper == REAL_PAPER:
+            return "real"
         if self.paper == "zhao_jamming":
             return "synthetic SKYDEL-like"
         if self.trace or self.surrogate is not None:
@@ -126,6 +134,8 @@ class Product:
     def suffix(self, config: Config) -> str:
         if self.is_surrogate(config):
             return "_surrogate"
+        if self.paper == REAL_PAPER:
+            return "_real"
         return "_synthetic" if self.kind == "figure" and self.data_kind(config) == "synthetic SKYDEL-like" else ""
 
     def outputs(self, config: Config) -> dict[str, str]:

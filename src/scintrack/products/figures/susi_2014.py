@@ -77,6 +77,7 @@ from ..tables.susi_2014 import (
     CLAIMS,
     METRICS,
     PAPER,
+    REAL_INDICES,
     REFERENCE,
     SAKF,
     SECTION,
@@ -84,8 +85,14 @@ from ..tables.susi_2014 import (
     has_jitter,
     jitter_trackers,
     paired,
+    real_event,
+    real_indices_inputs,
+    real_stations,
     scenario_is_surrogate,
+    scenario_minutes,
+    scenario_name,
     source_text,
+    station_values,
     steady_windows,
     trial_jitter,
     ts_ms,
@@ -743,4 +750,112 @@ def susi_sakf_monitor(*datasets, trace_spans=None, sakf_window_s: float = 3.0, s
         caption(fig, "Mean $\\Phi_3$ after the transient: " + "; ".join(parts) + ". The SAKF removes a quadratic fit from each 3-s window, "
                       "which also removes the 0.1-0.3 Hz part of the phase that dominates a steep power law; the ISMR convention keeps it.")
     figure_legend(fig, *handles_of(*axes[:, 0]), ncol=1, fontsize=7.5)
+    return fig
+
+
+# --- the REAL Septentrio indices beside the SURROGATE scenarios ----------------------------------
+
+#: index -> (symbol, unit in the title, axis label, log x axis) of the panels
+REAL_AXES = {"phi60": (r"$\Phi_{60}$", " rad", r"$\Phi_{60}$ [rad]", True),
+             "s4": ("$S_4$", "", "$S_4$ (thermal-noise part removed) [no unit]", False),
+             "T": ("$T$", " rad$^2$/Hz", "$T$: phase PSD at 1 Hz [rad$^2$/Hz]", True),
+             "p": ("$p$", "", "$p$: slope of the phase PSD $T f^{-p}$ [no unit]", False)}
+STATION_COLOURS = ("C0", "C1", "C4", "C5")
+SCENARIO_COLOURS = ("C2", "C3", "C6")
+
+
+def exceedance(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sorted values and the fraction of values at or above each (1 down to 1/n): the empirical survival function."""
+    x = np.sort(np.asarray(values, dtype=float))
+    return x, (x.size - np.arange(x.size)) / max(x.size, 1)
+
+
+def event_neighbours(biscef: xr.Dataset) -> list[float]:
+    """Phi60 of the chosen event's satellite in the minutes before and after it (those at the elevation mask)."""
+    ev = real_event(biscef)
+    same = (np.asarray(biscef["station"].values).astype(str) == str(ev["station"])) & (np.asarray(biscef["prn"].values) == int(ev["prn"]))
+    t = np.asarray(biscef["time"].values).astype("datetime64[s]")
+    t0 = np.datetime64(str(ev["time_utc"]), "s")
+    near = same & (np.abs((t - t0).astype(np.int64)) == 60)
+    return [float(v) for v in np.asarray(biscef["phi60"].values, dtype=float)[near]]
+
+
+def real_share_above(biscef: xr.Dataset, var: str, level: float) -> tuple[int, int]:
+    """(minutes with ``var`` >= ``level``, minutes with a value) over every station."""
+    v = np.asarray(biscef[var].values, dtype=float)
+    v = v[np.isfinite(v)]
+    return int((v >= level).sum()), int(v.size)
+
+
+def real_indices_verdict(biscef: xr.Dataset, *indices: xr.Dataset) -> Verdict:
+    """No paper figure: the chapter's scenario has no index record to compare with.  The line gives the real
+    Phi60 99th percentile per station, the chosen event, and how many real minutes reach the smallest
+    per-window Phi60 of each scenario."""
+    ev = real_event(biscef)
+    p99 = ", ".join(f"{name} {np.percentile(station_values(biscef, code, 'phi60'), 99):.2f} rad" for code, name in real_stations(biscef))
+    reach = []
+    for ind in indices:
+        low = float(np.nanmin(scenario_minutes(ind)["phi60"]))
+        k, n = real_share_above(biscef, "phi60", low)
+        reach.append(f"{scenario_name(ind)} Phi60 >= {low:.2f} rad in {k} of {n} real minutes")
+    return Verdict("no paper figure", f"real Phi60 99th percentile {p99}; max {float(ev['phi60']):.2f} rad ({ev['station_name']} PRN "
+                                      f"{int(ev['prn'])} {ev['time_utc']} UTC, the chosen event); " + "; ".join(reach))
+
+
+@figure("susi_real_indices", "real_indices_vs_surrogate_scenarios", paper=PAPER, section=SECTION, inputs=real_indices_inputs,
+        surrogate=lambda config: False, number=None,
+        claim="the chapter's high-latitude test signal is an extreme phase-only event (S4 at noise level, very high Phi60); "
+              "real high-latitude indices show how extreme",
+        tables=("susi_table_real_indices",), verdict=real_indices_verdict)
+def susi_real_indices(biscef: xr.Dataset, *indices: xr.Dataset):
+    """Exceedance curves of the real Phi60, S4, T and p per station, the scenarios' per-window values and the chosen event."""
+    ev = real_event(biscef)
+    fig, axes = new_figure(2, 2, figsize=(7.6, 6.6))
+    mask = float(biscef.attrs["elevation_min_deg"])
+    windows = sorted({float(ind.attrs["window_s"]) for ind in indices})
+    minutes = [scenario_minutes(ind) for ind in indices]
+    for ax, (var, _label, _unit) in zip(axes.ravel(), REAL_INDICES):
+        symbol, unit, xlabel, logx = REAL_AXES[var]
+        lowest = 1.0
+        for k, (code, name) in enumerate(real_stations(biscef)):
+            v = station_values(biscef, code, var)
+            if logx:
+                v = v[v > 0]
+            x, y = exceedance(v)
+            lowest = min(lowest, float(y[-1])) if y.size else lowest
+            ax.step(x, y, where="post", lw=1.2, color=STATION_COLOURS[k % len(STATION_COLOURS)],
+                    label=f"{name} ({code}), real: GPS satellite-minutes at elevation $\\geq$ {mask:g}°")
+        for k, (ind, vals) in enumerate(zip(indices, minutes)):
+            colour = SCENARIO_COLOURS[k % len(SCENARIO_COLOURS)]
+            v = vals[var][np.isfinite(vals[var])]
+            if not v.size:
+                continue
+            ax.axvspan(float(v.min()), float(v.max()), color=colour, alpha=0.18, lw=0)
+            ax.plot(v, np.full(v.size, 0.9 - 0.1 * k), ls="none", marker="v", ms=6, color=colour, transform=ax.get_xaxis_transform(),
+                    label=f"{scenario_name(ind)}: value per {float(ind.attrs['window_s']):g}-s window (triangles) and their range (band)")
+        ax.axvline(float(ev[var]), color="red", lw=1.0, ls="--",
+                   label=f"chosen event: {ev['station_name']} GPS PRN {int(ev['prn'])}, {ev['time_utc'].replace('T', ' ')} UTC")
+        ax.set_yscale("log")
+        ax.set_ylim(0.5 * lowest, 1.6)
+        if logx:
+            ax.set_xscale("log")
+            log_ticks(ax, "x")
+        log_ticks(ax)
+        ax.set_xlabel(xlabel, fontsize=8)
+        ax.set_ylabel("fraction of minutes\nwith a value $\\geq x$", fontsize=8)
+        ax.set_title(f"{symbol}: chosen event {float(ev[var]):.3g}{unit}", fontsize=8.5)
+    fig.suptitle(f"Real Septentrio scintillation indices, Tromsø and Ny-Ålesund, 2023-01-15 (GPS L1 C/A, elevation $\\geq$ {mask:g}°),\n"
+                 "beside the Susi 2014 scenarios: " + ", ".join(f"{scenario_name(ind)}" for ind in indices), fontsize=9)
+    fig.tight_layout()
+    neighbours = event_neighbours(biscef)
+    near = (f" The same satellite's $\\Phi_{{60}}$ in the minutes before and after: {', '.join(f'{v:.2f}' for v in neighbours)} rad."
+            if neighbours else "")
+    caption(fig, "Real: the receivers' one-minute indices of every GPS satellite (S4 with its thermal-noise part removed, 0 in most quiet "
+                 "minutes; $\\Phi_{60}$ after a 0.1-Hz high-pass; T and p fitted by the receiver over 0.1-25 Hz). Scenarios: the noise-free "
+                 "trace per " + "/".join(f"{w:g}" for w in windows) + "-s window (S4 of the detrended intensity, $\\Phi_{60}$ after a 0.1-Hz "
+                 "high-pass; T and p the medians of 3-s fits over 0.5-5 Hz). Chosen event: the minute with the largest $\\Phi_{60}$ at "
+                 f"elevation $\\geq$ {mask:g}° (rule fixed before any run): $\\Phi_{{60}}$ {float(ev['phi60']):.2f} rad, S4 {float(ev['s4']):.2f} "
+                 f"(noise correction {float(ev['s4_correction']):.2f}), T {float(ev['T']):.3g} rad$^2$/Hz, p {float(ev['p']):.2f}, "
+                 f"C/N$_0$ {float(ev['cn0']):.1f} dB-Hz, elevation {float(ev['elevation']):.1f}°." + near)
+    figure_legend(fig, *handles_of(*axes.ravel()), ncol=1, fontsize=7.5)
     return fig

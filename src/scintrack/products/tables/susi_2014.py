@@ -213,18 +213,104 @@ def _chapter_surrogate(config) -> bool:
     return any_surrogate(config, experiment_scenarios(config, CHAPTER))
 
 
+def _jitter_inputs(config):
+    """The chapter results and, when the chapter has scenarios, their jitter bound (rule susi_jitter_bound)."""
+    from ...pipeline.params import SUSI_JITTER_BOUND
+
+    out = _chapter_inputs(config)
+    return {**out, "jitter_bound": SUSI_JITTER_BOUND} if out else out
+
+
+# --- the jitter bound beside the jitter cells ----------------------------------------------------
+
+BOUND_PRODUCT = "susi_jitter_bound"  # the ``product`` attribute of results/susi_2014/jitter_bound.nc
+BOUND_NOISE_MODEL = "fading"  # the best loop of the scenario as simulated: prompt noise R / rho^2
+#: long-form column -> (grid column, the bound file's variable), inserted after the discriminator jitter
+DISCRIMINATOR_BOUNDS = {
+    "bound_rad": ("bound: predictor + thermal [rad] (jitter above it)", "bound_rad"),
+    "bound_fading_rad": ("bound with the trace's fading [rad] (jitter above it)", "bound_fading_rad"),
+    "wiener_bound_rad": ("Wiener bound, no fading [rad] (jitter above it)", "wiener_bound_rad"),
+}
+TRACKING_BOUND = ("tracking-error bound, no fading [rad] (jitter above it)", "tracking_bound_rad")
+BEST_LOOP = "best 3rd-order PLL, linear model [rad] (jitter above it)"
+
+
+def is_bound(ds: xr.Dataset) -> bool:
+    return ds.attrs.get("product") == BOUND_PRODUCT
+
+
+def bound_note(bound: xr.Dataset) -> str:
+    cn0s = ", ".join(f"{float(c):g} dB-Hz" for c in np.atleast_1d(bound["cn0_dbhz"].values))
+    return ("Bounds (per scenario, the same for every tracker; rule susi_jitter_bound, scintrack.experiments.prediction_bound): "
+            "'predictor + thermal' = sqrt(sigma^2_pred + 1/(2 C/N0 T)), sigma^2_pred the one-step prediction error variance of the noise-free "
+            "tracked phase (scintillation + receiver clock) from its spectrum (Kolmogorov-Szego formula on a Welch estimate of the phase increments), "
+            f"at {cn0s}: no tracker's discriminator jitter is below it. 'with the trace's fading' replaces 1/(2 C/N0 T) by its mean over the "
+            "window divided by the trace's squared amplitude, the thermal noise the prompts carry. 'Wiener' = sqrt of the innovation variance of "
+            "the measured phase (phase + white thermal noise, no fading): the smallest discriminator jitter of any linear causal tracker, reached "
+            "by the Wiener predictor; 'tracking-error bound' = sqrt(R (1 - R / innovation variance)), the error of the best causal filtered "
+            "phase, beside the tracking-error jitter. 'best 3rd-order PLL': the chapter's loop filter in the linear model (prompt noise "
+            f"R / rho^2) swept over Bn = 2-40 Hz, its smallest discriminator jitter and Bn, over {int(bound.attrs['loop_trials'])} noise "
+            "realisations. Each is the mean over the same steady-state windows as the jitter.")
+
+
+def add_bounds(long: pd.DataFrame, grid: pd.DataFrame, bound: xr.Dataset) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """``long`` and ``grid`` with the bound columns of each row's scenario (NaN / empty for a scenario the bound lacks)."""
+    scenarios = [str(s) for s in bound["scenario"].values]
+
+    def value(sc: str, var: str, **sel) -> float:
+        return float(bound[var].sel(scenario=sc, **sel)) if sc in scenarios else np.nan
+
+    long = long.copy()
+    disc = long["metric"] == "discriminator"
+    for col, (_, var) in DISCRIMINATOR_BOUNDS.items():
+        long[col] = [value(sc, var) if d else np.nan for sc, d in zip(long["scenario"], disc)]
+    long["tracking_bound_rad"] = [np.nan if d else value(sc, TRACKING_BOUND[1]) for sc, d in zip(long["scenario"], disc)]
+    long["best_loop_rad"] = [value(sc, "best_pll_jitter_rad", noise_model=BOUND_NOISE_MODEL) if d else np.nan for sc, d in zip(long["scenario"], disc)]
+    long["best_loop_bandwidth_hz"] = [value(sc, "best_bandwidth_hz", noise_model=BOUND_NOISE_MODEL) if d else np.nan
+                                      for sc, d in zip(long["scenario"], disc)]
+
+    jitter = {(r.scenario, r.label, r.metric): r.jitter_rad for r in long.itertuples()}
+
+    def cell(sc: str, label: str, metric: str, v: float, extra: str = "") -> str:
+        """``bound (+x%)``: the bound and how far the row's jitter lies above it (text, so that the Markdown keeps 4 digits)."""
+        if not np.isfinite(v):
+            return ""
+        above = 100.0 * (jitter.get((sc, label, metric), np.nan) / v - 1.0)
+        return f"{v:.4g}{extra}" + (f" ({above:+.1f}%)" if np.isfinite(above) else "")
+
+    rows = list(zip(grid["scenario"], grid["tracker"]))
+    new = {name: [cell(sc, lb, "discriminator", value(sc, var)) for sc, lb in rows] for name, var in DISCRIMINATOR_BOUNDS.values()}
+    new[BEST_LOOP] = [cell(sc, lb, "discriminator", value(sc, "best_pll_jitter_rad", noise_model=BOUND_NOISE_MODEL),
+                           f" at Bn {value(sc, 'best_bandwidth_hz', noise_model=BOUND_NOISE_MODEL):g} Hz") for sc, lb in rows]
+    new[TRACKING_BOUND[0]] = [cell(sc, lb, "tracking", value(sc, TRACKING_BOUND[1])) for sc, lb in rows]
+    columns = list(grid.columns)
+    after_disc = columns.index(f"{METRIC_TEXT['discriminator']} [rad]") + 1
+    after_track = columns.index(f"{METRIC_TEXT['tracking']} [rad]") + 1
+    order = (columns[:after_disc] + [c for c in new if c != TRACKING_BOUND[0]] + columns[after_disc:after_track] + [TRACKING_BOUND[0]]
+             + columns[after_track:])
+    grid = grid.assign(**new)
+    return long, grid[order]
+
+
 def _data_title(results: Sequence[xr.Dataset]) -> str:
     return " (SURROGATE data)" if any(is_surrogate_result(r) for r in results) else ""
 
 
-@table("susi_table_jitter", ["table_jitter", "table_jitter_long"], paper=PAPER, section=SECTION, inputs=_chapter_inputs, surrogate=_chapter_surrogate)
+@table("susi_table_jitter", ["table_jitter", "table_jitter_long"], paper=PAPER, section=SECTION, inputs=_jitter_inputs, surrogate=_chapter_surrogate)
 def susi_table_jitter(*results: xr.Dataset) -> dict:
-    """Phase jitter per tracker and scenario with 95% intervals and the paired difference to the PLL."""
+    """Phase jitter per tracker and scenario with 95% intervals and the paired difference to the PLL, and the
+    jitter bound of each scenario beside it (when the bound file is among the inputs)."""
+    bounds = [r for r in results if is_bound(r)]
+    results = [r for r in results if not is_bound(r)]
     long = jitter_long(results)
+    grid = jitter_grid(long)
     note = _jitter_method(results[0]) + " " + _scenario_notes(results)
+    if bounds:
+        long, grid = add_bounds(long, grid, bounds[0])
+        note += " " + bound_note(bounds[0])
     title = f"Susi et al. 2014: phase jitter of the PLL, AKF PLL and SAKF PLL{_data_title(results)}"
     return {
-        "table_jitter": (jitter_grid(long), title, note),
+        "table_jitter": (grid, title, note),
         "table_jitter_long": (long, title + ", long form", note),
     }
 
@@ -391,3 +477,138 @@ def susi_table_alpha(*results: xr.Dataset) -> dict:
             + _jitter_method(ref, "SAKF") + " " + _scenario_notes(alpha))
     title = f"Susi et al. 2014: SAKF sensitivity to the eq. (12) gain weighting{_data_title(alpha)}"
     return {"table_alpha": (alpha_grid(long), title, note), "table_alpha_long": (long, title + ", long form", note)}
+
+
+# --- susi_table_real_indices: the REAL Septentrio indices beside the SURROGATE scenarios --------
+
+#: (variable, label, unit) of the indices compared, in the order of the table and the figure's panels
+REAL_INDICES = (("phi60", "Phi60", "rad"), ("s4", "S4", "1"), ("T", "T", "rad^2/Hz"), ("p", "p", "1"))
+#: the percentiles of the real distributions the table gives
+REAL_PERCENTILES = (50, 90, 99)
+
+
+def real_indices_inputs(config) -> dict[str, str]:
+    """The real BiScEF rows (first), then the indices of every Susi trace scenario (config order)."""
+    from ...pipeline import params as P
+
+    return {"biscef": P.SUSI_BISCEF_INDICES, **{f"indices_{sc}": paths.susi_indices_path(sc) for sc in P.susi_scenarios(config)}}
+
+
+def real_stations(biscef: xr.Dataset) -> list[tuple[str, str]]:
+    """(receiver code, station name) of the stations of a BiScEF rows file, in file order."""
+    return [(code, str(biscef.attrs.get(f"{code}_station_name", code))) for code in str(biscef.attrs["stations"]).split(",")]
+
+
+def station_values(biscef: xr.Dataset, code: str, var: str) -> np.ndarray:
+    """The finite values of ``var`` at station ``code``."""
+    v = np.asarray(biscef[var].values, dtype=float)[np.asarray(biscef["station"].values).astype(str) == code]
+    return v[np.isfinite(v)]
+
+
+def scenario_minutes(ind: xr.Dataset) -> dict[str, np.ndarray]:
+    """Per index window (60 s in the full config) of a Susi scenario: the noise-free S4 and Phi60, and the
+    median T and p of the 3-s power-law fits that end inside the window."""
+    w = np.asarray(ind["window"].values, dtype=float)
+    half = float(ind.attrs["window_s"]) / 2
+    t = np.asarray(ind["tp_time"].values, dtype=float)
+    out = {"phi60": np.asarray(ind["phi60_true"].values, dtype=float), "s4": np.asarray(ind["s4_true"].values, dtype=float)}
+    for var in ("T", "p"):
+        values = np.asarray(ind[f"{var}_true"].values, dtype=float)
+        inside = [(t > c - half) & (t <= c + half) & np.isfinite(values) for c in w]
+        out[var] = np.array([float(np.median(values[m])) if m.any() else np.nan for m in inside])
+    return out
+
+
+def scenario_name(ind: xr.Dataset) -> str:
+    where = {"susi_high_latitude": "high-latitude", "susi_equatorial": "equatorial"}.get(str(ind.attrs["scenario"]), str(ind.attrs["scenario"]))
+    return f"{where} scenario ({short_source(ind)})"
+
+
+def real_event(biscef: xr.Dataset) -> dict[str, Any]:
+    """The chosen event from the ``event_*`` attributes."""
+    a = biscef.attrs
+    keys = ("station", "station_name", "prn", "time_utc", "elevation", "azimuth", "phi60", "s4", "s4_correction", "T", "p", "cn0")
+    return {k: a[f"event_{k}"] for k in keys}
+
+
+def real_indices_long(biscef: xr.Dataset, indices: Sequence[xr.Dataset]) -> pd.DataFrame:
+    """One row per (index, source): count, min, median, 90th/99th percentile and max of each real station, of each
+    scenario's windows (no percentiles: a handful of windows) and of the chosen event (its one value)."""
+    rows = []
+    ev = real_event(biscef)
+    for var, label, unit in REAL_INDICES:
+        name = f"{label} [{unit}]" if unit != "1" else label
+        for code, station in real_stations(biscef):
+            v = station_values(biscef, code, var)
+            q = np.percentile(v, REAL_PERCENTILES) if v.size else [np.nan] * len(REAL_PERCENTILES)
+            rows.append({"index": name, "data": "real", "source": f"{station} ({code})", "count": int(v.size),
+                         "min": float(v.min()) if v.size else np.nan, "median": q[0], "p90": q[1], "p99": q[2],
+                         "max": float(v.max()) if v.size else np.nan})
+        for ind in indices:
+            v = scenario_minutes(ind)[var]
+            v = v[np.isfinite(v)]
+            rows.append({"index": name, "data": short_source(ind), "source": scenario_name(ind), "count": int(v.size),
+                         "min": float(v.min()) if v.size else np.nan, "median": float(np.median(v)) if v.size else np.nan,
+                         "p90": np.nan, "p99": np.nan, "max": float(v.max()) if v.size else np.nan})
+        rows.append({"index": name, "data": "real", "source": f"chosen event: {ev['station_name']} PRN {int(ev['prn'])} {ev['time_utc']} UTC",
+                     "count": 1, "min": float(ev[var]), "median": float(ev[var]), "p90": np.nan, "p99": np.nan, "max": float(ev[var])})
+    return pd.DataFrame(rows)
+
+
+def _g(value: float) -> str:
+    return "" if not np.isfinite(value) else f"{value:.3g}"
+
+
+def real_indices_grid(long: pd.DataFrame) -> pd.DataFrame:
+    """The long form as read: percentiles of the real stations, the range of the scenarios' windows, the event's value."""
+    rows = []
+    for r in long.itertuples():
+        event = r.source.startswith("chosen event")
+        scenario = r.data != "real"
+        rows.append({"index": r.index, "data": r.data, "source": r.source, "count": "" if event else str(int(r.count)),
+                     "median": "" if event else _g(r.median), "90th percentile": "" if event or scenario else _g(r.p90),
+                     "99th percentile": "" if event or scenario else _g(r.p99), "max": "" if event else _g(r.max),
+                     "range": f"{_g(r.min)} - {_g(r.max)}" if scenario else "", "value": _g(r.median) if event else ""})
+    return pd.DataFrame(rows)
+
+
+def real_event_frame(biscef: xr.Dataset) -> pd.DataFrame:
+    ev = real_event(biscef)
+    return pd.DataFrame([{
+        "station": f"{ev['station_name']} ({ev['station']})", "GPS PRN": int(ev["prn"]), "UTC": str(ev["time_utc"]),
+        "elevation [deg]": float(ev["elevation"]), "azimuth [deg]": float(ev["azimuth"]), "Phi60 [rad]": float(ev["phi60"]),
+        "S4 (noise part removed)": float(ev["s4"]), "S4 noise correction": float(ev["s4_correction"]), "T [rad^2/Hz]": float(ev["T"]),
+        "p": float(ev["p"]), "C/N0 [dB-Hz]": float(ev["cn0"]),
+    }])
+
+
+def _real_note(biscef: xr.Dataset, indices: Sequence[xr.Dataset]) -> str:
+    mask = float(biscef.attrs["elevation_min_deg"])
+    windows = sorted({float(ind.attrs["window_s"]) for ind in indices})
+    return (f"Real: Septentrio ISMR indices in BiScEF files (Tromsø PolaRx5S, Ny-Ålesund PolaRxS, 2023-01-15; kartverket/BiScEF, MIT), "
+            f"GPS L1 C/A, elevation >= {mask:g} deg, one value per satellite-minute. Count: satellite-minutes with a value (real), windows "
+            "(scenarios). S4 is the receiver's "
+            "S4 with its thermal-noise part removed (S4s1; 0 where the correction exceeds the total, as in most quiet minutes); Phi60 after the "
+            "receiver's 0.1-Hz 6th-order Butterworth high-pass; T = phase PSD at 1 Hz and p = slope of the 0.1-25 Hz phase spectrum, fitted "
+            "by the receiver over each minute. Surrogate scenarios (the Susi 2014 runs): per "
+            + "/".join(f"{w:g}" for w in windows) + "-s window of the noise-free trace, S4 of the detrended intensity and Phi60 after a "
+            "zero-phase 0.1-Hz high-pass; T and p are the medians per window of 3-s power-law fits over 0.5-5 Hz (a narrower band than the "
+            "receiver's). Chosen event: the minute with the largest L1 Phi60 of a GPS satellite at elevation >= "
+            f"{mask:g} deg over both files (rule fixed before any run, docs/REPRODUCTION.md); its values are those of that one minute.")
+
+
+@table("susi_table_real_indices", ["table_real_indices_vs_surrogate", "table_real_indices_vs_surrogate_long", "table_real_event"], paper=PAPER, section=SECTION,
+       inputs=real_indices_inputs, surrogate=lambda config: False)
+def susi_table_real_indices(biscef: xr.Dataset, *indices: xr.Dataset) -> dict:
+    """The real Septentrio index distributions per station beside the surrogate scenarios' ranges, and the chosen event."""
+    note = _real_note(biscef, indices)
+    ev = real_event(biscef)
+    long = real_indices_long(biscef, indices)
+    title = "Susi et al. 2014: REAL Septentrio scintillation indices (Tromsø, Ny-Ålesund, 2023-01-15) beside the SURROGATE scenarios"
+    return {
+        "table_real_indices_vs_surrogate": (real_indices_grid(long), title, note),
+        "table_real_indices_vs_surrogate_long": (long, title + ", long form", note),
+        "table_real_event": (real_event_frame(biscef),
+                             f"Susi et al. 2014: the REAL event chosen for the high-latitude scenario ({ev['station_name']}, GPS PRN "
+                             f"{int(ev['prn'])}, {ev['time_utc']} UTC)", note),
+    }
