@@ -54,6 +54,15 @@ def snakemake_env(**extra: str) -> dict[str, str]:
     return dict(os.environ, **SNAKEMAKE_ENV, **extra)
 
 
+def registry_text(datasets: dict) -> str:
+    """A dataset registry of a test's own: the repository's entries (real recordings, indices, ephemerides) with
+    ``datasets`` added or replacing theirs, so the rules that read other entries still find them."""
+    import yaml
+
+    base = yaml.safe_load((REPO / "data" / "registry.yaml").read_text(encoding="utf-8"))
+    return yaml.safe_dump({**base, "datasets": {**base["datasets"], **datasets}}, sort_keys=False)
+
+
 def snakemake_cmd() -> list[str]:
     """The command that runs ``snakemake``, as a user runs it (arguments are appended)."""
     return [SNAKEMAKE]

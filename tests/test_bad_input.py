@@ -42,6 +42,7 @@ import pytest
 import xarray as xr
 import yaml
 from conftest import REPO, SNAKEMAKE, cores_per_worker, snakemake_cmd, snakemake_env
+from conftest import registry_text as registry_text_of
 
 pytestmark = pytest.mark.pipeline
 
@@ -112,7 +113,7 @@ def _traces(tmp: Path, file: Path, sha: str | None = None, registry_text: str | 
     """Overlay: every event read from ``file`` (or ``source``), its sha256 in a registry of the test's own."""
     registry = tmp / "registry.yaml"
     if registry_text is None:
-        registry_text = yaml.safe_dump({"datasets": {f"jrc_hanoi_{e}": {"sha256": sha or _sha(file)} for e in EVENTS}})
+        registry_text = registry_text_of({f"jrc_hanoi_{e}": {"sha256": sha or _sha(file)} for e in EVENTS})
     registry.write_text(registry_text)
     src = source or {"path": str(file)}
     return {"real_traces": {"registry": str(registry), "sources": {e: dict(src) for e in EVENTS}}}
@@ -165,7 +166,7 @@ def trace_case(kind: str) -> Callable[[Path, Path], dict]:
         if kind == "wrong_sha":
             return _traces(tmp, _save(tmp / "ev.npz", arrays), sha="1" * 64)
         if kind == "no_sha":
-            return _traces(tmp, _save(tmp / "ev.npz", arrays), registry_text="datasets: {}\n")
+            return _traces(tmp, _save(tmp / "ev.npz", arrays), registry_text=registry_text_of({}))
         if kind == "url":
             return _traces(tmp, tmp / "x", sha="0" * 64, source={"url": "http://127.0.0.1:9/event.nc"})
         if kind == "registry_yaml":

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from conftest import REPO, snakemake_cmd, snakemake_env
+from conftest import REPO, registry_text, snakemake_cmd, snakemake_env
 
 from scintrack.data.surrogate import surrogate_event, surrogate_params
 from scintrack.io import open_dataset
@@ -48,7 +48,7 @@ def _write_traces(folder: Path) -> dict[str, str]:
 
 def _overlay(tmp: Path, folder: Path, shas: dict[str, str], **extra) -> Path:
     registry = tmp / "registry.yaml"
-    registry.write_text(yaml.safe_dump({"datasets": {f"jrc_hanoi_{e}": {"sha256": s} for e, s in shas.items()}}))
+    registry.write_text(registry_text({f"jrc_hanoi_{e}": {"sha256": s} for e, s in shas.items()}))
     rt = {"registry": str(registry), "sources": {e: {"path": str(folder / f"{e}.npz")} for e in EVENTS}, **extra}
     overlay = tmp / "overlay.yaml"
     overlay.write_text(yaml.safe_dump({"real_traces": rt}))

@@ -96,7 +96,8 @@ def code_copy(tmp_path):
         shutil.copytree(REPO / name, root / name, ignore=ignore)
     (root / "data").mkdir()
     shutil.copy2(REPO / "data" / "registry.yaml", root / "data" / "registry.yaml")
-    shutil.copytree(REPO / "data" / "ephemerides", root / "data" / "ephemerides")  # an input from outside the pipeline
+    shutil.copytree(REPO / "data" / "ephemerides", root / "data" / "ephemerides")  # inputs from outside the pipeline
+    shutil.copytree(REPO / "data" / "real", root / "data" / "real")
     shutil.copy2(REPO / "Snakefile", root / "Snakefile")
     shutil.copy2(REPO / "environment.lock", root / "environment.lock")
     return root

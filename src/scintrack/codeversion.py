@@ -166,13 +166,13 @@ def _save_disk() -> None:
     path = _DISK_STATE.get("path")
     if not _DISK_STATE.get("dirty") or path is None:
         return
-    try:
-        from .atomic import atomic_bytes
+    from .atomic import OutputWriteError, atomic_bytes
 
+    try:
         atomic_bytes(path, json.dumps(_DISK, sort_keys=True), hold=False)  # bookkeeping, not an output: no fault-injection hold
         _DISK_STATE["dirty"] = False
-    except OSError:
-        pass  # no cache written: the next run parses again
+    except (OSError, OutputWriteError):
+        pass  # no cache written (a full disk, a file-size limit): the next run parses again
 
 
 def _facts(path: Path, own_name: str | None) -> dict:
