@@ -58,10 +58,15 @@ def test_fresh_clone_plans_the_whole_dag_for_archive(tmp_path):
         "gps_jamming_dataset": 1, "gps_iq_recording": 1, "zhao_cn0_estimates": 1, "zhao_iq_spectrum": 1,
         "zhao_bit_prediction": 1, "zhao_channel": len(config["gps_jamming"]["prns"]), "zhao_receiver": 1,
         "zhao_cn0_sweep_point": len(config["zhao_receiver"]["cn0_sweep"]["cn0_dbhz"]),
+        "zhao_reading_channel": len(config["zhao_readings"]["readings"]) * len(config["gps_jamming"]["prns"]),
+        "zhao_reading_receiver": len(config["zhao_readings"]["readings"]),
+        **({"zhao_clean_dataset": 1} if any(r.get("scenario") == "clean" for r in config["zhao_readings"]["readings"].values()) else {}),
         "susi_surrogate": len(config["susi_2014"]["traces"]), "susi_indices": len(params.susi_scenarios(config)),
         "vv_floors": 1, "susi_jitter_bound": 1, "susi_biscef_indices": 1,
         "real_acquisition": len(paths.signal_recordings(config)), "real_tracking": len(config["real_signals"]["tracked"]),
         **({"ar_lut_wrapped": 1} if any(e.get("lut") == "wrapped" for e in exps) else {}),
+        **({"susi_akf_bandwidth": 1} if params.SUSI_AKF_QJERK_EXPERIMENT in config["experiments"] else {}),
+        **({"susi_readings_loops": 1} if params.SUSI_READINGS_EXPERIMENT in config["experiments"] else {}),  # Susi readings U1-U4
         **{name: 1 for name in products()},  # every registered figure and table
     }
     assert planned == expected

@@ -154,7 +154,7 @@ def test_scintillation_block_reads_a_known_power_law_and_the_weight_is_monotone(
     assert w[0] == 0.8 and np.all(np.diff(w) < 0)
     s_phi, s_f = trk.scint_psd(np.array([1e-2]), np.array([2.5]))
     np.testing.assert_allclose(s_phi, 1e-2 * 0.19**-2.5)
-    np.testing.assert_allclose(s_f, 0.19**2 * s_phi / (2 * np.pi) ** 2)
+    np.testing.assert_allclose(s_f, 0.19**2 * s_phi)  # S_f = nu^2 S_phi, rad and Hz (tests/test_susi_readings.py)
     del signal
 
 

@@ -211,6 +211,14 @@ def check_consistency(config: Mapping[str, Any], source: str = "config/config.ya
     remembered(__name__, "check_consistency", config, check, keep)
 
 
+def _check_zhao_readings(config: Mapping[str, Any]) -> None:
+    """Every pre-declared Zhao reading names receiver settings that exist and a ``jammed_from`` that does."""
+    from .experiments.zhao_readings import reading_spec
+
+    for reading in (config.get("zhao_readings") or {}).get("readings", {}):
+        reading_spec(config, reading)
+
+
 def _check_consistency(config: Mapping[str, Any], source: str) -> None:
     from .trackers.registry import validate_specs
 
@@ -238,6 +246,7 @@ def _check_consistency(config: Mapping[str, Any], source: str) -> None:
             f"ar_models.pacf_lags={config['ar_models']['pacf_lags']}; fix it in {source}"
         )
     _check_experiments(config, source)
+    _check_zhao_readings(config)
     _check_real_traces(config, source)
     _check_trace_scenarios(config, source)
     for name in config["floors"]["scenarios"]:

@@ -179,3 +179,81 @@ rule zhao_cn0_sweep_point:
         trial_batch=int(config["zhao_receiver"]["trial_batch"]),  # memory only: not a param (no result depends on it)
     script:
         "../scripts/zhao_sweep_point.py"
+
+
+# --- Zhao et al.: the pre-declared readings of where the position spread comes from
+# (docs/REPRODUCTION.md); every reading runs the receiver's own scripts with its params.
+
+import re
+
+ZR_READINGS = list(config["zhao_readings"]["readings"])
+ZR_CLEAN = [r for r in ZR_READINGS if config["zhao_readings"]["readings"][r].get("scenario", "jammed") == "clean"]
+GPS_CLEAN_DATASET = paths.gps_clean_dataset_path(config)
+
+
+if ZR_CLEAN:
+
+    rule zhao_clean_dataset:
+        """Truth of the clean scenario: the jammed scenario's dataset with the jammer off for the whole 4 minutes."""
+        input:
+            ephemerides=EPHEMERIDES,
+        output:
+            ensure(GPS_CLEAN_DATASET, non_empty=True),
+        params:
+            dataset=P.zhao_clean_dataset(config),
+            code=code("make_gps_jamming.py"),
+        log:
+            "logs/data/gps_jamming_clean.log",
+        threads: 1
+        resources:
+            mem_mb=RES.mem_mb("gps_jamming_dataset"),
+            runtime=RES.runtime("gps_jamming_dataset"),
+        script:
+            "../scripts/make_gps_jamming.py"
+
+
+rule zhao_reading_channel:
+    """One satellite channel of one pre-declared reading (zhao_readings): the receiver with the reading's overrides."""
+    input:
+        # a jammed-scenario reading reads the dataset and its bit prediction; a clean one the clean dataset (MM without priors)
+        unpack(lambda wc: {"dataset": GPS_CLEAN_DATASET, "ephemerides": EPHEMERIDES} if wc.reading in ZR_CLEAN
+               else {"dataset": GPS_DATASET, "ephemerides": EPHEMERIDES, "prediction": paths.ZHAO_BIT_PREDICTION}),
+    output:
+        ensure(paths.zhao_reading_channel("{reading}", "{prn}"), non_empty=True),
+    params:
+        receiver=lambda wildcards: P.zhao_reading(config, wildcards.reading),
+        code=code("zhao_channel.py"),
+    wildcard_constraints:
+        reading="|".join(re.escape(r) for r in ZR_READINGS),
+        prn=r"\d+",
+    log:
+        "logs/zhao_jamming/readings/{reading}/channel_prn{prn}.log",
+    threads: 1
+    resources:
+        mem_mb=RES.zhao_channel_mem_mb(config),
+        runtime=RES.zhao_channel_runtime(config),
+        trial_batch=int(config["zhao_receiver"]["trial_batch"]),  # memory only: not a param (no result depends on it)
+    script:
+        "../scripts/zhao_channel.py"
+
+
+rule zhao_reading_receiver:
+    """Positions and ENU statistics of one pre-declared reading from its channels."""
+    input:
+        dataset=lambda wildcards: GPS_CLEAN_DATASET if wildcards.reading in ZR_CLEAN else GPS_DATASET,
+        channels=[paths.zhao_reading_channel("{reading}", p) for p in GJ["prns"]],
+    output:
+        ensure(paths.zhao_reading_receiver("{reading}"), non_empty=True),
+    params:
+        receiver=lambda wildcards: P.zhao_reading_receiver(config, wildcards.reading),
+        code=code("zhao_receiver.py"),
+    wildcard_constraints:
+        reading="|".join(re.escape(r) for r in ZR_READINGS),
+    log:
+        "logs/zhao_jamming/readings/{reading}/receiver.log",
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("zhao_receiver"),
+        runtime=RES.runtime("zhao_receiver"),
+    script:
+        "../scripts/zhao_receiver.py"

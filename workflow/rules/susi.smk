@@ -84,3 +84,45 @@ rule susi_jitter_bound:
         runtime=RES.runtime("susi_jitter_bound"),
     script:
         "../scripts/jitter_bound.py"
+
+
+rule susi_akf_bandwidth:
+    """Steady-state loop bandwidth of the AKF PLLs of the q_jerk sweep (experiment susi_akf_qjerk) per Q term: oscillator only, q_jerk only, both."""
+    output:
+        P.SUSI_AKF_BANDWIDTH,
+    params:
+        run=P.susi_akf_bandwidth(config),
+        code=code("akf_bandwidth.py"),
+    log:
+        "logs/susi_2014/akf_bandwidth.log",
+    benchmark:
+        "results/benchmarks/susi_akf_bandwidth.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("susi_akf_bandwidth"),
+        runtime=RES.runtime("susi_akf_bandwidth"),
+    script:
+        "../scripts/akf_bandwidth.py"
+
+
+# --- Susi readings U1-U4 of eqs. (7)-(8) (pre-declared, docs/REPRODUCTION.md) ---------------------------
+
+rule susi_readings_loops:
+    """Steady-state loop bandwidth of each reading of eqs. (7)-(8) (experiment susi_readings) at its median on-line T, p and weight."""
+    input:
+        **{f"result_{sc}": paths.exp_result(P.SUSI_READINGS_EXPERIMENT, sc) for sc in P.susi_readings_loops(config)["scenarios"]},
+    output:
+        P.SUSI_READINGS_LOOPS,
+    params:
+        run=P.susi_readings_loops(config),
+        code=code("susi_readings_loops.py"),
+    log:
+        "logs/susi_2014/readings_loops.log",
+    benchmark:
+        "results/benchmarks/susi_readings_loops.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("susi_readings_loops"),
+        runtime=RES.runtime("susi_readings_loops"),
+    script:
+        "../scripts/susi_readings_loops.py"

@@ -14,9 +14,14 @@ batches and keeps what the figures and tables need, not the raw 1-ms series:
 * per tracker, for ``figure_trial``: phase and frequency error series;
 * per tracker, trial and position epoch: the measured pseudorange
   ``c (arrival estimate - transmit time)`` interpolated to the common
-  receiver time, with the DLL's code error.
+  receiver time, with the DLL's code error (with ``code_phase: sample``,
+  rounded to the sample grid of the recording: :func:`sample_quantised`).
 
-The PLL's errors are modulo pi (Costas); the MM filter's modulo 2 pi.
+The PLL's errors are modulo pi (Costas); the MM filter's modulo 2 pi.  With
+``zhao_receiver.pll_lock`` the tracker ``pll_fll`` (the PLL with lock
+detector, frequency hold and FLL re-pull) follows ``pll`` with the same
+metrics (modulo pi), and ``example_pll_fll_locked`` holds its own detector's
+state for ``figure_trial``.
 """
 
 from __future__ import annotations
@@ -53,8 +58,36 @@ def _read_navigation(path: str, mtime_ns: int, size: int) -> tuple[tuple[ephemer
     return tuple(ephemeris.load(path)), ephemeris.read_header(path)
 
 
+def sample_quantised(pseudorange_m: np.ndarray, sample_rate_hz: float) -> np.ndarray:
+    """Pseudoranges whose code phase is read at the integer sample of the recording (``zhao_receiver.code_phase: sample``).
+
+    A receiver that counts samples forms the transmit time of the code at a
+    sample instant from the whole number of samples since the code epoch:
+    the delay ``rho / c`` is known to the sample, ``T_s = 1 / f_s``, so the
+    pseudorange is ``rho_q = (c / f_s) round(rho f_s / c)`` (one step, 24 m at
+    12.5 MS/s; uniform error of std ``c / (f_s sqrt(12))`` = 6.9 m as the
+    Doppler sweeps the code across the sample grid).  The 1-ms code period is
+    a whole number of samples at 12.5 MS/s, so rounding the whole delay and
+    rounding the code phase within the period are the same.
+    """
+    step = C_LIGHT / float(sample_rate_hz)
+    return step * np.round(np.asarray(pseudorange_m, dtype=float) / step)
+
+
+def _code_phase_rate(params: Mapping[str, Any]) -> float | None:
+    """The sampling rate the pseudoranges are quantised to, or None (continuous code phase, the DLL's NCO)."""
+    mode = params["receiver"].get("code_phase", "continuous")
+    if mode == "continuous":
+        return None
+    if mode != "sample" or not params.get("sample_rate_hz"):
+        raise ValueError(f"zhao_receiver.code_phase: {mode!r} needs 'continuous', or 'sample' with the recording's "
+                         "gps_jamming.iq.sample_rate_hz in the params (scintrack.pipeline.params)")
+    return float(params["sample_rate_hz"])
+
+
 def _trackers(params: Mapping[str, Any]) -> list[str]:
-    return ["pll", *params["receiver"]["variants"]]
+    pll_fll = ["pll_fll"] if params["receiver"].get("pll_lock") is not None else []  # zhao_receiver.pll_lock
+    return ["pll", *pll_fll, *params["receiver"]["variants"]]
 
 
 def _metrics(err: np.ndarray, ferr: np.ndarray, jammed: np.ndarray, lock: Mapping[str, Any]) -> dict[str, np.ndarray]:
@@ -123,6 +156,7 @@ def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemeri
         # tropospheric model): they cancel the delays exactly, i.e. a perfectly modelled atmosphere
         pr_true = pr_true - ds["iono"].isel(sv=k).values - ds["tropo"].isel(sv=k).values
     rate = float(rc["position_rate_hz"])
+    fs_code = _code_phase_rate(params)
     t_pos = np.arange(np.ceil(rt[0] * rate), np.floor(rt[-1] * rate) + 1) / rate
     fig_trial = int(rc["figure_trial"])
     per_trial: dict[str, list[np.ndarray]] = {}
@@ -144,9 +178,9 @@ def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemeri
         for name in names:
             err, ferr = out[f"{name}_phase_error"], out[f"{name}_frequency_error"]
             m = _metrics(err, ferr, jammed, rc["lock"])
-            if name == "pll":
+            if name in ("pll", "pll_fll"):
                 # Costas decisions up to one global sign, fixed on the clean part
-                lvl = out["pll_level"]
+                lvl = out[f"{name}_level"]
                 sign = np.sign(np.sum(lvl[:, ~jammed] * out["true_level"][~jammed], axis=1, keepdims=True))
                 wrong = (lvl * sign) != out["true_level"][None, :]
                 m.update(predicted=np.zeros(len(trials_b)), prediction_wrong=np.zeros(len(trials_b)))
@@ -166,10 +200,13 @@ def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemeri
                 example[f"{name}:phase"] = err[i]
                 example[f"{name}:frequency"] = ferr[i]
                 example[f"{name}:bit_error"] = wrong[i].astype(np.int8)
+                if name == "pll_fll":  # its own detector's state (frequency hold / FLL re-pull while False)
+                    example["pll_fll:locked"] = out["pll_fll_locked"][i].astype(np.int8)
             # pseudorange at the common receiver times: arrival estimate = true arrival - code error
             dtau = out[f"{name}_code_error_chips"]
             pr_meas = pr_true[None, :] - C_LIGHT * CHIP_S * dtau
-            pseudo[name].append(np.stack([np.interp(t_pos, rt, row) for row in pr_meas]))
+            pr_pos = np.stack([np.interp(t_pos, rt, row) for row in pr_meas])
+            pseudo[name].append(pr_pos if fs_code is None else sample_quantised(pr_pos, fs_code))
         log("PRN %d: trials %d-%d done", prn, trials_b[0], trials_b[-1])
         del true_bit
     metric_keys = sorted({key.split(":", 1)[1] for key in per_trial})
@@ -180,6 +217,9 @@ def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemeri
     data["rmse_t"] = (("tracker", "time"), np.array([np.sqrt(sq_sum[n] / n_trials) for n in names]), {"units": "rad"})
     for what, units in (("phase", "rad"), ("frequency", "Hz"), ("bit_error", "1")):
         data[f"example_{what}"] = (("tracker", "time"), np.array([example[f"{n}:{what}"] for n in names]), {"units": units, "trial": fig_trial})
+    if "pll_fll:locked" in example:
+        data["example_pll_fll_locked"] = (("time",), example["pll_fll:locked"],
+                                          {"units": "1", "trial": fig_trial, "long_name": "pll_fll: its own lock detector in lock (1) or holding / re-pulling (0)"})
     data["pseudorange"] = (("tracker", "trial", "pos_time"), np.array([np.concatenate(pseudo[n]) for n in names]), {"units": "m"})
     shared = next((src.robust for src in sources.values() if src.robust is not None), None)
     last, nxt = _prediction_map(ds, k, ephs, header, shared)
@@ -192,5 +232,5 @@ def channel_result(ds: xr.Dataset, prn: int, params: Mapping[str, Any], ephemeri
     )
     res.attrs.update(prn=int(prn), jammer_onset_s=onset, cn0_jammed_dbhz=float(ds.attrs["cn0_jammed_dbhz"] if cn0_jammed_dbhz is None else cn0_jammed_dbhz),
                      dataset_version=str(ds.attrs["dataset_version"]), source="synthetic", n_trials=n_trials,
-                     error_wrap="pll: modulo pi (Costas); mm_*: modulo 2 pi")
+                     error_wrap="pll: modulo pi (Costas); mm_*: modulo 2 pi" + ("; pll_fll: modulo pi" if "pll_fll" in names else ""))
     return res

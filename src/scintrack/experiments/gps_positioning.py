@@ -77,6 +77,8 @@ def receiver_result(ds: xr.Dataset, channels: Sequence[xr.Dataset], params: Mapp
     out = out.assign_coords(prn=("prn", prns))
     for what in ("example_phase", "example_frequency", "rmse_t"):
         out[what] = (("tracker", "prn", "time_bit"), np.stack([ch[what].values for ch in channels], axis=1))
+    if "example_pll_fll_locked" in channels[0]:  # zhao_receiver.pll_lock: the pll_fll variant's own detector (figures 6, 9)
+        out["example_pll_fll_locked"] = (("prn", "time_bit"), np.stack([ch["example_pll_fll_locked"].values for ch in channels]))
     out = out.assign_coords(time_bit=("time_bit", channels[0]["time"].values))
     out["prediction_last"] = channels[0]["prediction_last"]
     out["prediction_next"] = channels[0]["prediction_next"]

@@ -6,6 +6,9 @@ Per satellite and batch of trials (noise realisations of the same scenario):
    ephemeris-predicted Doppler, seeded E/P/L noise);
 2. the baseline: a third-order Costas PLL at 1 ms (``zhao_receiver.pll``);
    its phase error is ambiguous by pi, so it is reported modulo pi;
+   with ``zhao_receiver.pll_lock`` also the same PLL as a receiver runs it
+   (variant ``pll_fll``: lock detector, frequency hold, FLL-assisted re-pull;
+   :mod:`scintrack.trackers.pll_lock`);
 3. the MM Kalman filter (``zhao_receiver.mm``) on bit-synchronous 20-ms sums,
    once per bit-prior strategy (``variants``):
 
@@ -25,7 +28,10 @@ Per satellite and batch of trials (noise realisations of the same scenario):
    ambiguity resolved the wrong way) counts as an error of pi;
 4. a carrier-aided DLL (:mod:`scintrack.navigation.dll`) on the same noise
    draws' E/L columns, aided by each carrier tracker's frequency estimate, for
-   the pseudoranges of the positioning step (:mod:`.gps_positioning`).
+   the pseudoranges of the positioning step (:mod:`.gps_positioning`);
+   ``dll.carrier_aiding: false`` gives the loop without aiding (its NCO
+   holds the hand-over Doppler), which receivers use when the carrier loop
+   is not trusted.
 
 Bit synchronisation and the navigation history before the start (the frames
 a receiver decoded in the clean minutes before, 25 of them for the pages)
@@ -45,6 +51,7 @@ import xarray as xr
 
 from ..signals.gps import bit_prediction, ephemeris, message
 from ..signals.gps.correlator import NoiseStream
+from ..trackers import pll_lock
 from ..trackers.base import TrackerContext, TrackInit
 from ..trackers.registry import build
 from . import gps_bit_prediction
@@ -213,6 +220,27 @@ def prior_sources(ds: xr.Dataset, k: int, variants: Sequence[str], ephs: Sequenc
     return {v: PriorSource(v, robust, history, nav_idx, eps) for v in variants}
 
 
+def pll_fll_outputs(pll, y1: np.ndarray, init1: TrackInit, start: int, n_bits: int, rc: Mapping[str, Any], phi: np.ndarray,
+                    f_res: np.ndarray, code_error) -> dict[str, np.ndarray]:
+    """The ``pll_fll`` variant: the PLL ``pll`` with lock detector, frequency hold and FLL re-pull
+    (:mod:`scintrack.trackers.pll_lock`, ``zhao_receiver.pll_lock`` with the detector of ``zhao_receiver.lock``),
+    on the same prompts; its outputs under the PLL's names with the prefix ``pll_fll_`` (errors modulo pi,
+    Costas), and ``pll_fll_locked``: its own detector's state at each bit."""
+    o = pll_lock.run(pll, y1, init1, start, pll_lock.settings(rc["pll_lock"], rc["lock"]))
+    phase, freq = o.theta_d, o.extras["frequency_hz"]
+    sl = slice(start, start + n_bits * gp.BIT_MS, gp.BIT_MS)
+    rot = derotated_sums(y1, phase, gp.BIT_MS, start, n_bits)
+    res = {
+        "pll_fll_phase_error": gp.wrap(phase[:, sl] - phi[sl], np.pi),
+        "pll_fll_frequency_error": freq[:, sl] - f_res[sl],
+        "pll_fll_level": np.sign(rot.real).astype(np.int8),
+        "pll_fll_locked": o.extras["locked"][:, sl],
+    }
+    del o, rot
+    res["pll_fll_code_error_chips"] = code_error(phase, freq)
+    return res
+
+
 def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[int], sources: Mapping[str, PriorSource],
             cn0_jammed_dbhz: float | None = None) -> dict[str, np.ndarray]:
     """All trackers of satellite ``k`` for ``trials``; arrays (trials, bits) at 20 ms unless named otherwise."""
@@ -230,6 +258,11 @@ def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[
     n_tr = len(trials)
     first_in_bit = int(ds["first_epoch_in_bit"].isel(sv=k))
     spacing = float(rc["dll"]["spacing_chips"])
+    # ``dll.carrier_aiding: false``: the code NCO holds the Doppler of the hand-over (the truth at the start,
+    # where the carrier trackers start too) and the loop's own rate correction follows the rest
+    # (:func:`scintrack.navigation.dll.run`, ``aiding_error_hz``)
+    doppler = ds["doppler"].isel(sv=k).values.astype(float)
+    aid_err = None if rc["dll"].get("carrier_aiding", True) else doppler[0] - doppler
 
     def code_error(phase1: np.ndarray, freq1: np.ndarray) -> np.ndarray:
         """DLL of one carrier tracker on the E/L columns of the same noise draws (phase/frequency at 1 ms).
@@ -239,7 +272,8 @@ def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[
         phase_err, freq_err = np.subtract(phase1, phi, out=phase1), np.subtract(freq1, f_res, out=freq1)
         return dll.run(noise, cn0, bits, phase_err, freq_err, spacing_chips=spacing,
                        bandwidth_hz=float(rc["dll"]["bandwidth_hz"]), integration_ms=int(rc["dll"]["integration_ms"]),
-                       first_in_bit=first_in_bit, gain="fixed", cn0_ref_dbhz=float(ds.attrs["cn0_clean_dbhz"]))
+                       first_in_bit=first_in_bit, gain="fixed", cn0_ref_dbhz=float(ds.attrs["cn0_clean_dbhz"]),
+                       aiding_error_hz=aid_err)
 
     # Each tracker's DLL runs as soon as its carrier estimates exist, and the 1-ms arrays behind it are
     # dropped, so at most one tracker's (trials, epochs) intermediates are held at a time (peak memory
@@ -263,6 +297,8 @@ def channel(ds: xr.Dataset, k: int, params: Mapping[str, Any], trials: Sequence[
     # PLL bit decisions (Costas: up to a global sign) for the clean-segment decoding check
     rot = derotated_sums(y1, p_phase, gp.BIT_MS, start, n_bits)
     out["pll_level"] = np.sign(rot.real).astype(np.int8)
+    if rc.get("pll_lock") is not None:  # the PLL as a receiver runs it (zhao_receiver.pll_lock)
+        out.update(pll_fll_outputs(pll, y1, init1, start, n_bits, rc, phi, f_res, code_error))
     del y1, rot
     out["pll_code_error_chips"] = code_error(p_phase, p_freq)
     del p_phase, p_freq

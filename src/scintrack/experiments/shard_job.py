@@ -72,6 +72,7 @@ def _block(run: Mapping[str, Any], trials: Sequence[int], data: ScenarioInputs, 
     ds.attrs.update({"cn0_dbhz": float(scenario.get("cn0_dbhz", tracking.cn0_dbhz)), "fd0_hz": fd0, "fr_hz_s": fr, "ts": float(run["ts"])})
     if data.source is not None:
         ds.attrs.update({"trace_source": data.source, "trace_name": scenario["trace"]["name"],
+                         "trace_phase_scale": float(scenario["trace"].get("phase_scale", 1.0)),
                          "title": f"{run['scenario_name']}: {'SURROGATE' if data.source == 'surrogate' else 'REAL'} scintillation trace"})
     ds.attrs.update(provenance(config={**run, "trials": list(trials)}, seed=int(run["seed"]), inputs=list(inputs),
                                extra={"experiment": run["experiment"]}))

@@ -100,10 +100,18 @@ def trace_ar_set(models: xr.Dataset, band: str) -> ScintillationAR:
 
 
 def scenario_trace(ds: xr.Dataset, scenario: Mapping[str, Any], ts: float) -> tuple[tuple[np.ndarray, np.ndarray], ScintillationAR, str]:
-    """((rho, theta) to track, AR models of the fitting part, source) of a trace scenario."""
+    """((rho, theta) to track, AR models of the fitting part, source) of a trace scenario.
+
+    ``trace.phase_scale`` (default 1) multiplies the trace's phase, amplitude unchanged, before the
+    fit and the tracked segment are cut: the same event with its phase scintillation ``phase_scale``
+    times as strong (Susi's in-band strength sweep; the trace file itself is the unscaled one).
+    """
     from ..data.susi_traces import at_rate
 
     rho, theta, source = at_rate(ds, ts)
+    scale = float(scenario["trace"].get("phase_scale", 1.0))
+    if scale != 1.0:
+        theta = theta * scale
     fit_s, duration_s = float(scenario["trace"]["fit_s"]), float(scenario["duration_s"])
     name = str(ds.attrs.get("event", scenario["trace"]["name"]))
     one = xr.Dataset(

@@ -40,7 +40,11 @@ so the code error obeys ``d(dtau)/dt = f_code - f_code,true = f_err/1540 + u``
 (1540 = 1575.42e6 / 1.023e6): a replica running fast drifts early (``dtau``
 grows).  ``f_err`` is constant within an epoch; ``dtau`` at an epoch is its
 mid-epoch value (the correlator's convention) and the state is propagated
-from start to start of epochs exactly.
+from start to start of epochs exactly.  Without carrier aiding
+(``aiding_error_hz`` of :func:`run`) the NCO's Doppler term is a held value
+``f_hold`` (the code Doppler at hand-over) instead of the tracker's
+estimate, and ``d(dtau)/dt = (f_hold - f_D)/1540 + u``: the carrier
+tracker then only wipes off the carrier of the correlator outputs.
 
 Loop filter (first order).  After integration j the rate correction for the
 whole of integration j+1 is ``u = -K D_j`` (the NCO integrates it: a
@@ -178,11 +182,13 @@ def discriminator(ie, qe, il, ql, gain):
 
 
 @njit(cache=True)
-def dll_kernel(a, sigma, bits, phase_err, freq_err, noise, spacing, n_int, offset, k_gain, disc_gain, dtau0, out):
+def dll_kernel(a, sigma, bits, phase_err, freq_err, aid_err, noise, spacing, n_int, offset, k_gain, disc_gain, dtau0, out):
     """Closed-loop DLL over ``out.shape = (trials, epochs)``; writes mid-epoch ``dtau`` (chips) into ``out``.
 
     ``a, sigma, bits, phase_err, freq_err`` (replica minus true): (trials,
-    epochs) (broadcast views allowed); ``noise``: (trials, epochs, 6);
+    epochs) (broadcast views allowed); ``aid_err``: (trials, epochs) error of
+    the code NCO's rate aid (Hz of carrier; ``freq_err`` for a carrier-aided
+    loop); ``noise``: (trials, epochs, 6);
     ``offset``: code periods of the first integration already elapsed at
     epoch 0 (that partial integration gives no update); ``k_gain``: K (1/s);
     ``dtau0``: (trials,) code error at the start of epoch 0.
@@ -197,7 +203,7 @@ def dll_kernel(a, sigma, bits, phase_err, freq_err, noise, spacing, n_int, offse
         m = offset
         partial = offset > 0
         for e in range(n_ep):
-            rate = freq_err[t, e] / CARRIER_PER_CHIP + u
+            rate = aid_err[t, e] / CARRIER_PER_CHIP + u
             mid = start + 0.5 * rate * t1
             out[t, e] = mid
             epl(a[t, e], bits[t, e], mid, -phase_err[t, e], -freq_err[t, e], t1, spacing, noise[t, e], buf, sigma[t, e])
@@ -261,6 +267,7 @@ def run(
     dtau0_chips=0.0,
     gain: str = "agc",
     cn0_ref_dbhz=None,
+    aiding_error_hz=None,
 ) -> np.ndarray:
     """Closed-loop code error ``dtau`` (trials, epochs) in chips (true minus replica delay, mid-epoch).
 
@@ -274,6 +281,13 @@ def run(
     10 or 20); ``first_in_bit``: code period of epoch 0 within its 20-ms bit
     (0 = bit edge).  ``dtau0_chips``: scalar or (trials,) code error at the
     start of epoch 0.  ``gain``/``cn0_ref_dbhz``: the correlator's normalisation.
+    ``aiding_error_hz``: error (estimate minus truth, Hz of carrier) of the
+    Doppler that sets the code NCO's rate, broadcast to (trials, epochs);
+    ``None`` (a carrier-aided loop) uses ``freq_error_hz``.  A loop without
+    carrier aiding holds the code Doppler it started with, so its aiding
+    error is that start value minus the true Doppler (a rate-only loop: the
+    first-order filter's correction ``u`` alone follows the Doppler's change,
+    with the lag ``r / K`` of :func:`steady_state_lag_chips`).
     """
     noise = np.asarray(noise, dtype=np.float64)
     if noise.ndim != 3 or noise.shape[-1] != 6:
@@ -298,6 +312,7 @@ def run(
     dll_kernel(
         _as_grid(a, shape, "a"), _as_grid(sigma, shape, "sigma"), _check_bits(bits, shape, n_int, int(first_in_bit)),
         _as_grid(phase_error_rad, shape, "phase_error_rad"), _as_grid(freq_error_hz, shape, "freq_error_hz"),
+        _as_grid(freq_error_hz if aiding_error_hz is None else aiding_error_hz, shape, "aiding_error_hz"),
         np.ascontiguousarray(noise), delta, n_int, int(first_in_bit) % n_int, k_gain, discriminator_gain(delta), dtau0, out,
     )
     return out

@@ -171,9 +171,11 @@ def experiment_like(config: Mapping[str, Any], scenario: str, trackers) -> dict[
 
 
 def susi_scenarios(config: Mapping[str, Any]) -> list[str]:
-    """The trace scenarios of the experiments (Susi 2014's), in config order."""
+    """The trace scenarios of the experiments (Susi 2014's) at the trace's own strength, in config order (the
+    in-band sweep's copies with a ``trace.phase_scale`` other than 1 are the same event, not further scenarios)."""
     used = {sc for exp in config["experiments"].values() for sc in exp["scenarios"]}
-    return [name for name, sc in config["scenarios"].items() if "trace" in sc and name in used]
+    return [name for name, sc in config["scenarios"].items()
+            if "trace" in sc and name in used and float(sc["trace"].get("phase_scale", 1.0)) == 1.0]
 
 
 #: the jitter bound of the Susi chapter's scenarios (rule susi_jitter_bound, read by susi_table_jitter)
@@ -190,6 +192,40 @@ def susi_jitter_bound(config: Mapping[str, Any]) -> dict[str, Any]:
         out[name] = {"scenario": sc, "trace": susi_trace(config, sc["trace"]["name"]), "tracking": tracking_slice(config, []),
                      "ts": float(sc.get("ts", config["sampling"]["ts"]))}
     return {"scenarios": out, "seed": int(config["seed"])}
+
+
+# --- Susi 2014: the AKF's steady-state loop bandwidth, decomposed (rule susi_akf_bandwidth) ---------------
+
+#: the AKF trackers of the q_jerk sweep with their steady-state bandwidths (read by susi_table_akf_qjerk)
+SUSI_AKF_QJERK_EXPERIMENT = "susi_akf_qjerk"
+SUSI_AKF_BANDWIDTH = f"{paths.SUSI_RESULTS}/akf_qjerk_bandwidth.nc"
+
+
+def susi_akf_bandwidth(config: Mapping[str, Any]) -> dict[str, Any]:
+    """The steady-state loop bandwidth of every ``susi_akf`` tracker of the ``susi_akf_qjerk`` experiment on each of its
+    scenarios: the tracker specs, each scenario's clock, C/N0 and Ts, and the ``tracking`` values the AKF reads."""
+    spec = config["experiments"].get(SUSI_AKF_QJERK_EXPERIMENT, {})
+    names = [t for t in spec.get("trackers", []) if config["trackers"][t]["type"] == "susi_akf"]
+    scenarios = {name: {"scenario": dict(config["scenarios"][name]), "ts": float(config["scenarios"][name].get("ts", config["sampling"]["ts"]))}
+                 for name in spec.get("scenarios", [])}
+    return {"trackers": tracker_specs(config, names), "tracker_names": names, "scenarios": scenarios, "tracking": tracking_slice(config, names)}
+
+
+# --- Susi 2014: the steady-state loops of the readings U1-U4 of eqs. (7)-(8) (rule susi_readings_loops) -----------
+
+#: the experiment of the readings and the loop bandwidth of each reading at its median on-line T, p (read by susi_table_readings)
+SUSI_READINGS_EXPERIMENT = "susi_readings"
+SUSI_READINGS_LOOPS = f"{paths.SUSI_RESULTS}/readings_loops.nc"
+
+
+def susi_readings_loops(config: Mapping[str, Any]) -> dict[str, Any]:
+    """The Susi KF trackers (``susi_akf``, ``susi_sakf``) of the ``susi_readings`` experiment with their specs, and per
+    scenario the scenario, Ts and the ``tracking`` values those trackers read (scintrack.experiments.susi_readings)."""
+    spec = config["experiments"].get(SUSI_READINGS_EXPERIMENT, {})
+    names = [t for t in spec.get("trackers", []) if config["trackers"][t]["type"] in ("susi_akf", "susi_sakf")]
+    scenarios = {name: {"scenario": dict(config["scenarios"][name]), "tracking": tracking_slice(config, names),
+                        "ts": float(config["scenarios"][name].get("ts", config["sampling"]["ts"]))} for name in spec.get("scenarios", [])}
+    return {"experiment": SUSI_READINGS_EXPERIMENT, "trackers": tracker_specs(config, names), "scenarios": scenarios}
 
 
 def floors(config: Mapping[str, Any], scenario: str) -> dict[str, Any]:
@@ -324,6 +360,44 @@ def zhao_sweep(config: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+# --- Zhao et al.: the pre-declared readings of the position spread (docs/REPRODUCTION.md) ---
+
+
+def zhao_clean_dataset(config: Mapping[str, Any]) -> dict[str, Any]:
+    """The clean scenario's dataset: ``gps_jamming`` with the jammer off for the whole scenario."""
+    from ..experiments.zhao_readings import clean_scenario_config
+
+    return gps_dataset(clean_scenario_config(config))
+
+
+def zhao_reading(config: Mapping[str, Any], reading: str) -> dict[str, Any]:
+    """One reading's channels and receiver: :func:`zhao_receiver` with the reading's receiver (its overrides,
+    ``zhao_readings.trials`` and ``variants``), on its scenario's dataset; with ``code_phase: sample`` also the
+    recording's sampling rate (``gps_jamming.iq.sample_rate_hz``), the grid the code phase is read on."""
+    from ..experiments.zhao_readings import reading_receiver, reading_spec
+
+    rc = reading_receiver(config, reading)
+    clean = reading_spec(config, reading)["scenario"] == "clean"
+    out = {
+        "dataset": zhao_clean_dataset(config) if clean else gps_dataset(config),
+        "seed": int(config["seed"]),
+        "receiver": rc,
+        "trackers": tracker_specs(config, [rc["pll"], rc["mm"]]),
+    }
+    if rc.get("code_phase", "continuous") == "sample":
+        out["sample_rate_hz"] = float(config["gps_jamming"]["iq"]["sample_rate_hz"])
+    return out
+
+
+def zhao_reading_receiver(config: Mapping[str, Any], reading: str) -> dict[str, Any]:
+    """One reading's positions: :func:`zhao_reading` and the reading's name, scenario and ``jammed_from``
+    (written into the result's attributes, which the readings table pairs by)."""
+    from ..experiments.zhao_readings import reading_spec
+
+    spec = reading_spec(config, reading)
+    return {**zhao_reading(config, reading), "reading": reading, "scenario": spec["scenario"], "jammed_from": spec["jammed_from"] or ""}
+
+
 # --- Real GPS recordings (docs/real-signals.md) ----------------------------------------
 
 
@@ -366,6 +440,10 @@ def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
         out[paths.susi_indices_path(scenario)] = susi_indices(config, scenario)
     out[SUSI_BISCEF_INDICES] = susi_biscef(config)
     out[SUSI_JITTER_BOUND] = susi_jitter_bound(config)
+    if SUSI_AKF_QJERK_EXPERIMENT in config["experiments"]:
+        out[SUSI_AKF_BANDWIDTH] = susi_akf_bandwidth(config)
+    if SUSI_READINGS_EXPERIMENT in config["experiments"]:  # the Susi readings U1-U4
+        out[SUSI_READINGS_LOOPS] = susi_readings_loops(config)
     out[paths.ZHAO_CN0] = zhao_cn0(config)
     out[paths.ZHAO_SPECTRUM] = zhao_spectrum(config)
     out[paths.ZHAO_BIT_PREDICTION] = zhao_bit_prediction(config)
@@ -374,6 +452,10 @@ def results(config: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     out[paths.ZHAO_RECEIVER] = zhao_receiver(config)
     for cn0 in config["zhao_receiver"]["cn0_sweep"]["cn0_dbhz"]:
         out[paths.zhao_sweep_point(cn0)] = zhao_sweep(config)
+    for reading in config["zhao_readings"]["readings"]:  # the pre-declared readings of the position spread
+        for prn in config["gps_jamming"]["prns"]:
+            out[paths.zhao_reading_channel(reading, prn)] = zhao_reading(config, reading)
+        out[paths.zhao_reading_receiver(reading)] = zhao_reading_receiver(config, reading)
     for recording in paths.signal_recordings(config):
         out[paths.real_acquisition_path(recording)] = real_acquisition(config, recording)
     for recording in config["real_signals"]["tracked"]:

@@ -129,6 +129,27 @@ def zhao_channel(prn: int | str) -> str:
     return f"{ZHAO_RESULTS}/channels/prn{prn}.nc"
 
 
+# Zhao et al.: the pre-declared readings of the position spread (docs/REPRODUCTION.md)
+ZHAO_READINGS = f"{ZHAO_RESULTS}/readings"
+
+
+def zhao_reading_channel(reading: str, prn: int | str) -> str:
+    """One channel of one reading (``reading``/``prn`` may be wildcards)."""
+    return f"{ZHAO_READINGS}/{reading}/channels/prn{prn}.nc"
+
+
+def zhao_reading_receiver(reading: str) -> str:
+    """Positions and ENU statistics of one reading."""
+    return f"{ZHAO_READINGS}/{reading}/receiver.nc"
+
+
+def gps_clean_dataset_path(config: Mapping[str, Any]) -> str:
+    """The clean scenario's dataset (the jammer off for the whole scenario): another version of the same dataset."""
+    from ..experiments.zhao_readings import clean_scenario_config
+
+    return gps_dataset_path(clean_scenario_config(config))
+
+
 def gps_dataset_path(config: Mapping[str, Any]) -> str:
     from ..data.gps_jamming_spec import NAME, gps_jamming_params, gps_jamming_version
 

@@ -50,6 +50,7 @@ PRODUCT_MODULES = (
     "scintrack.products.tables.zhao_jamming",
     "scintrack.products.figures.susi_2014",
     "scintrack.products.tables.susi_2014",
+    "scintrack.products.tables.susi_2014_readings",  # Susi readings U1-U4 of eqs. (7)-(8)
     "scintrack.products.figures.ranking",
     "scintrack.products.tables.ranking",
     "scintrack.products.figures.vila_valls_2018_aekf",

@@ -26,9 +26,12 @@ types (the SAKF is the AKF plus the scintillation blocks):
   detrended, its standard deviation is Phi3 and its periodogram gives the
   power law ``T f^-p`` (:mod:`scintrack.estimators.power_law`).  Eq. (7)
   adds ``S_dphi,scint = T f_irr^-p`` and eq. (8) ``S_df,scint = f_irr^2
-  S_dphi,scint`` (f_irr = 0.19 Hz; divided by (2 pi)^2 to go from rad to Hz,
-  the relation ``S_f = f^2 S_phi`` holding in cycles) to the clock PSDs, and
-  eq. (12) weights the gain, ``K' = w K`` with
+  S_dphi,scint`` (f_irr = 0.19 Hz) to the clock PSDs: with the phase in rad
+  and the frequency in Hz, ``phi(t) = 2 pi int f dt`` gives ``2 pi F(nu) =
+  j 2 pi nu Phi(nu)``, so ``S_f(nu) = nu^2 S_phi(nu)`` exactly (rad^2/Hz to
+  Hz^2/Hz; in cycles it would read ``(2 pi nu)^2 S_phi``).  The other
+  readings of eqs. (7)-(8) are the spec key ``scintillation_q_reading``
+  (:meth:`SusiKF.scint_psd`).  Eq. (12) weights the gain, ``K' = w K`` with
   ``w = alpha (1 + Phi3 / phi_ref)^-gamma`` (the chapter gives neither alpha
   nor K(Phi3): this monotone form, falling with Phi3 for gamma > 0, is our
   choice; ``alpha = 1, gamma = 0`` is no weighting).  The covariance of the
@@ -356,6 +359,65 @@ class GainWeighting:
         return self.alpha * (1.0 + np.asarray(phi3) / self.phi_ref_rad) ** (-self.exponent)
 
 
+#: the readings of eqs. (7)-(8) (spec key ``scintillation_q_reading``; docs/REPRODUCTION.md, U1-U4)
+SCINTILLATION_Q_READINGS = ("literal", "literal_cycles", "eq8_only", "freq_random_walk", "increment_variance")
+#: points of the Gauss-Legendre rule in log f of the ``increment_variance`` integral
+INCREMENT_NODES = 256
+
+
+def scintillation_q_psd(reading: str, T: np.ndarray, p: np.ndarray, f_irr: float, ts: float) -> tuple[np.ndarray, np.ndarray]:
+    """(S_dphi,scint in rad^2/s, S_df,scint in Hz^2/s) that the reading of eqs. (7)-(8) adds to the white
+    process noises of the phase and frequency states, from the power law ``S_phi(f) = T f^-p`` (one-sided,
+    rad^2/Hz, T at 1 Hz; :mod:`scintrack.estimators.power_law`); non-finite T or p give 0.
+
+    * ``literal`` (U1, rad-consistent; the default): eq. (7) ``S_dphi = T f_irr^-p`` as the intensity of a
+      phase random walk and eq. (8) ``S_df = f_irr^2 S_dphi``.  With phi in rad and f in Hz,
+      ``phi = 2 pi int f dt`` gives ``S_f(nu) = nu^2 S_phi(nu)`` exactly (rad^2/Hz to Hz^2/Hz).
+    * ``literal_cycles`` (U1 as first coded): the same with eq. (8) divided by (2 pi)^2,
+      ``S_df = f_irr^2 T f_irr^-p / (2 pi)^2``, a relation that would hold with phi in cycles; kept
+      only as a named reading.
+    * ``eq8_only`` (U2): no phase term, ``S_df = f_irr^2 T f_irr^-p``.
+    * ``freq_random_walk`` (U3): no phase term; a frequency random walk of intensity ``S_df`` has the
+      one-sided frequency PSD ``2 S_df / (2 pi nu)^2`` and so the phase PSD ``2 S_df / ((2 pi)^2 nu^4)``;
+      it equals ``T f^-p`` at ``f_irr`` for ``S_df = 2 pi^2 f_irr^4 T f_irr^-p``.
+    * ``increment_variance`` (U4): no frequency term; the per-step phase noise is the variance of the
+      ``ts`` increment of the ``T f^-p`` process, ``V = int_{f_irr}^{1/(2 ts)} T f^-p 4 sin^2(pi f ts) df``
+      (rad^2), i.e. ``S_dphi = V / ts`` (Q[0, 0] gains ``S_dphi ts = V``); the integral by a
+      :data:`INCREMENT_NODES`-point Gauss-Legendre rule in ``ln f``.
+    """
+    T = np.asarray(T, dtype=float)
+    p = np.asarray(p, dtype=float)
+    ok = np.isfinite(T) & np.isfinite(p)
+    T0, p0 = np.where(ok, T, 0.0), np.where(ok, p, 0.0)
+    at_irr = T0 * f_irr ** (-p0)
+    zero = np.zeros_like(at_irr)
+    if reading == "literal":
+        s_phi, s_f = at_irr, f_irr**2 * at_irr
+    elif reading == "literal_cycles":
+        s_phi, s_f = at_irr, f_irr**2 * at_irr / (2 * math.pi) ** 2
+    elif reading == "eq8_only":
+        s_phi, s_f = zero, f_irr**2 * at_irr
+    elif reading == "freq_random_walk":
+        s_phi, s_f = zero, 2 * math.pi**2 * f_irr**4 * at_irr
+    elif reading == "increment_variance":
+        s_phi, s_f = increment_variance(T0, p0, f_irr, ts) / ts, zero
+    else:
+        raise ValueError(f"scintillation_q_reading {reading!r} is not one of {', '.join(SCINTILLATION_Q_READINGS)}")
+    return np.where(ok & np.isfinite(s_phi), s_phi, 0.0), np.where(ok & np.isfinite(s_f), s_f, 0.0)
+
+
+def increment_variance(T: np.ndarray, p: np.ndarray, f_lo: float, ts: float) -> np.ndarray:
+    """``int_{f_lo}^{1/(2 ts)} T f^-p 4 sin^2(pi f ts) df`` [rad^2] per element of ``T``, ``p`` (Gauss-Legendre in
+    ``u = ln f``: ``int T e^{(1-p) u} 4 sin^2(pi e^u ts) du``, smooth in u)."""
+    x, wq = np.polynomial.legendre.leggauss(INCREMENT_NODES)
+    a, b = math.log(f_lo), math.log(0.5 / ts)
+    u = 0.5 * (b - a) * x + 0.5 * (b + a)
+    f = np.exp(u)
+    T, p = np.asarray(T, dtype=float), np.asarray(p, dtype=float)
+    g = np.exp(np.multiply.outer(1.0 - p, u)) * (4 * np.sin(math.pi * f * ts) ** 2)
+    return T * (0.5 * (b - a)) * (g @ wq)
+
+
 @dataclass
 class SusiKF(Tracker):
     SPEC_OVERRIDES = {"q_jerk_hz2_s3": "q_jerk_hz2_s3"}
@@ -372,6 +434,7 @@ class SusiKF(Tracker):
     cn0_window_s: float = 0.5
     scintillation: bool = False  # the SAKF blocks (eqs. 7, 8, 12)
     scintillation_q: bool = True  # eqs. (7)-(8) on (SAKF)
+    scintillation_q_reading: str = "literal"  # which reading of eqs. (7)-(8): SCINTILLATION_Q_READINGS
     weighting: GainWeighting = field(default_factory=GainWeighting)
     window_s: float = 3.0
     update_s: float = 0.1
@@ -397,10 +460,9 @@ class SusiKF(Tracker):
         return q
 
     def scint_psd(self, T: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Eqs. (7)-(8): (S_dphi,scint rad^2/s, S_df,scint Hz^2/s) from the power law at f_irr."""
-        s_phi = np.asarray(T) * self.f_irregularity_hz ** (-np.asarray(p))
-        s_phi = np.where(np.isfinite(s_phi), s_phi, 0.0)
-        return s_phi, self.f_irregularity_hz**2 * s_phi / (2 * math.pi) ** 2
+        """Eqs. (7)-(8): (S_dphi,scint rad^2/s, S_df,scint Hz^2/s) from the power law at f_irr, in the
+        reading ``scintillation_q_reading`` (:func:`scintillation_q_psd`)."""
+        return scintillation_q_psd(self.scintillation_q_reading, T, p, self.f_irregularity_hz, self.ts)
 
     @property
     def nominal_noise(self) -> float:
@@ -570,6 +632,8 @@ AKF_SCHEMA = {
 SAKF_SCHEMA = {
     **AKF_SCHEMA,
     "scintillation_q": {"type": "boolean", "description": "add eqs. (7)-(8) to Q (default true)"},
+    "scintillation_q_reading": {"enum": list(SCINTILLATION_Q_READINGS),
+                                "description": "reading of eqs. (7)-(8) (default literal; scintillation_q_psd gives each formula)"},
     "window_s": {"type": "number", "exclusiveMinimum": 0, "description": "Phi3 / T, p window [s] (default 3)"},
     "update_s": {"type": "number", "exclusiveMinimum": 0, "description": "refresh period of Phi3, T, p [s] (default 0.1)"},
     "fit_band_hz": {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0}, "minItems": 2, "maxItems": 2,
@@ -616,6 +680,7 @@ class SusiSAKF(SusiKF):
         band = spec.get("fit_band_hz", (0.5, 5.0))
         return cls(
             **cls._kwargs(spec, context), scintillation=True, scintillation_q=bool(spec.get("scintillation_q", True)),
+            scintillation_q_reading=str(spec.get("scintillation_q_reading", "literal")),
             weighting=GainWeighting(float(gw.get("alpha", 1.0)), float(gw.get("phi_ref_rad", 0.5)), float(gw.get("exponent", 1.0))),
             window_s=float(spec.get("window_s", 3.0)), update_s=float(spec.get("update_s", 0.1)), fit_band_hz=(float(band[0]), float(band[1])),
             f_irregularity_hz=float(spec.get("f_irregularity_hz", F_IRREGULARITY_HZ)),
@@ -631,14 +696,17 @@ class SusiSAKF(SusiKF):
             quals.append(f"gamma = {float(gw['exponent']):g}")
         if spec.get("scintillation_q") is False:
             quals.append("no scint. Q")
+        elif spec.get("scintillation_q_reading", "literal") != "literal":
+            quals.append(f"Q: {spec['scintillation_q_reading']}")
         return compose("SAKF PLL", quals)
 
 
 # --- loop analysis (tests, docs) --------------------------------------------------------
 
 
-def steady_state_gain(tracker: SusiKF, cn0_hz: float | None = None) -> np.ndarray:
-    """Steady-state Kalman gain for fixed Q (clock + rate terms) and R = eq. (10) at ``cn0_hz``.
+def steady_state_gain(tracker: SusiKF, cn0_hz: float | None = None, scint: tuple[float, float] | None = None) -> np.ndarray:
+    """Steady-state Kalman gain for fixed Q (clock + rate terms, plus the scintillation PSDs ``scint`` =
+    (S_dphi,scint, S_df,scint) of :meth:`SusiKF.scint_psd` when given) and R = eq. (10) at ``cn0_hz``.
 
     ``P`` (prior) solves the discrete algebraic Riccati equation
     ``P = F P F^T - F P H^T (H P H^T + R)^-1 H P F^T + Q``
@@ -649,7 +717,10 @@ def steady_state_gain(tracker: SusiKF, cn0_hz: float | None = None) -> np.ndarra
     F = dynamics_F(tracker.ts)
     H = np.array([[1.0, 0.0, 0.0]])
     R = float(blocks.costas_variance(tracker.nominal_cn0_hz if cn0_hz is None else cn0_hz, tracker.ts))
-    P = solve_discrete_are(F.T, H.T, tracker.q_base(), np.array([[R]]))
+    Q = tracker.q_base()
+    if scint is not None:
+        blocks.phase_frequency_q(float(scint[0]), float(scint[1]), tracker.ts, Q)
+    P = solve_discrete_are(F.T, H.T, Q, np.array([[R]]))
     return (P @ H.T / (H @ P @ H.T + R))[:, 0]
 
 

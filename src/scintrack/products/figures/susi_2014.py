@@ -45,7 +45,11 @@
   over 3 s removes the 0.1-0.3 Hz part that dominates a steep power law).
   The noise-free phase is read from the scenario's trace file (the
   ``trace_*`` inputs, cut as the runner cuts it: ``fit_s`` onwards for the
-  scenario's duration).
+  scenario's duration);
+* in-band strength (no chapter figure): the discriminator jitter of the three
+  loops and its paired difference to the PLL against the scale of the
+  scintillation phase (log axis, ticks at the scales), both scenarios, with
+  the lowest tracker per scale in each panel title (``susi_table_inband``).
 
 The high-latitude scintillation is always a SYNTHETIC SURROGATE; the
 equatorial one is too unless the JRC traces are configured: every title says
@@ -858,4 +862,97 @@ def susi_real_indices(biscef: xr.Dataset, *indices: xr.Dataset):
                  f"(noise correction {float(ev['s4_correction']):.2f}), T {float(ev['T']):.3g} rad$^2$/Hz, p {float(ev['p']):.2f}, "
                  f"C/N$_0$ {float(ev['cn0']):.1f} dB-Hz, elevation {float(ev['elevation']):.1f}°." + near)
     figure_legend(fig, *handles_of(*axes.ravel()), ncol=1, fontsize=7.5)
+    return fig
+
+
+# --- in-band strength: jitter against the phase scale (pre-declared reading) ----------------------------------
+
+
+def _inband_figure_inputs(config):
+    from ..tables.susi_2014 import _inband_inputs
+
+    return _inband_inputs(config)
+
+
+def _inband_figure_surrogate(config) -> bool:
+    from ..tables.susi_2014 import _inband_surrogate
+
+    return _inband_surrogate(config)
+
+
+def inband_verdict(*results) -> Verdict:
+    """No chapter figure: the verdict per site and scale (the tracker with the lowest discriminator jitter, with paired intervals)."""
+    from ..tables.susi_2014 import inband_results, lowest_verdict, phase_scale
+
+    parts = []
+    for s, group in inband_results(results).items():
+        parts.append(f"{s.replace('_', ' ')}: " + "; ".join(f"x{phase_scale(r):g} {lowest_verdict(r)[1]}" for r in group))
+    surrogate = any(_surrogate_data(r) for r in results)
+    return Verdict("no paper figure", f"{_data_words(surrogate)}: " + " | ".join(parts))
+
+
+#: short tracker names of the in-band figure's titles
+SHORT = {"susi_pll": "PLL", "susi_akf": "AKF", "susi_sakf": "SAKF"}
+
+
+def _lowest_short(res) -> str:
+    """The lowest tracker's short name, ``A~B`` for a tie (a paired interval that includes 0)."""
+    from ..tables.susi_2014 import INBAND_TRACKERS, lowest_verdict
+
+    best, _ = lowest_verdict(res)
+    ties = [t for t in INBAND_TRACKERS if t != best and has_jitter(res, t)
+            and paired(trial_jitter(res, best), trial_jitter(res, t))[2] >= 0]
+    return "~".join(SHORT.get(t, t) for t in [best, *ties])
+
+
+@figure("susi_fig_inband", "fig_inband", paper=PAPER, section=SECTION, inputs=_inband_figure_inputs, surrogate=_inband_figure_surrogate,
+        number=None, claim="the chapter's claim (KF PLLs, the SAKF first, below the PLL) at other strengths of the same scintillation phase",
+        tables=("susi_table_inband",), verdict=inband_verdict)
+def susi_fig_inband(*results):
+    """Discriminator jitter (top) and its paired difference to the PLL (bottom) against the phase scale, per site."""
+    from ..tables.susi_2014 import INBAND_TRACKERS, inband_results, phase_scale
+
+    groups = inband_results(results)
+    fig, axes = new_figure(2, len(groups), figsize=(4.6 * len(groups), 6.6), squeeze=False)
+    widest = 0.0
+    for col, (s, group) in enumerate(groups.items()):
+        scales = np.array([phase_scale(r) for r in group])
+        top, bottom = axes[0, col], axes[1, col]
+        for k, tr in enumerate(INBAND_TRACKERS):
+            stats = [mean_with_ci(trial_jitter(r, tr)) if has_jitter(r, tr) else (np.nan,) * 3 for r in group]
+            m, lo, hi = (np.array(v, dtype=float) for v in zip(*stats))
+            widest = max(widest, float(np.nanmax(hi - m)))
+            dx = 1.0 + 0.02 * (k - 1)  # a small offset on the log axis so that the bars do not overlap
+            top.errorbar(scales * dx, m, yerr=[m - lo, hi - m], fmt="o-", ms=4, lw=1.0, capsize=3, color=_colour(tr, k), label=_label(group[0], tr))
+            if tr != REFERENCE:
+                d = [paired(trial_jitter(r, tr), trial_jitter(r, REFERENCE)) if has_jitter(r, tr) else (np.nan,) * 3 for r in group]
+                dm, dlo, dhi = (np.array(v, dtype=float) for v in zip(*d))
+                bottom.errorbar(scales * dx, dm, yerr=[dm - dlo, dhi - dm], fmt="o-", ms=4, lw=1.0, capsize=3, color=_colour(tr, k),
+                                label=_label(group[0], tr))
+        bottom.axhline(0.0, color=_colour(REFERENCE, 0), lw=1.0, ls="--", label=f"{_label(group[0], REFERENCE)} (difference 0)")
+        lowest = [_lowest_short(r) for r in group]
+        for ax in (top, bottom):
+            ax.set_xscale("log")
+            ax.set_xticks(scales)
+            ax.set_xticklabels([f"{v:g}" for v in scales])
+            ax.minorticks_off()
+            ax.set_xlabel("phase scale (x the trace's scintillation phase)")
+        top.set_ylim(bottom=0)
+        top.set_ylabel("discriminator jitter [rad]")
+        bottom.set_ylabel("minus PLL, paired [rad]")
+        where = "high latitude" if "high_latitude" in s else "equatorial" if "equatorial" in s else s
+        top.set_title(f"{where}: {_cond(group[0])}\nlowest: " + ", ".join(f"x{v:g} {t}" for v, t in zip(scales, lowest)), fontsize=7.5)
+        bottom.set_title(f"{where}: tracker minus PLL, same realisations", fontsize=8)
+    first = results[0]
+    fig.suptitle("Susi et al. 2014 on SYNTHETIC SURROGATE scintillation: jitter against the strength of the scintillation phase"
+                 if any(_surrogate_data(r) for r in results) else
+                 "Susi et al. 2014: jitter against the strength of the scintillation phase", fontsize=9)
+    fig.tight_layout()
+    caption(fig, f"Each point: mean over {int(first['n_trials'])} trials of the per-trial discriminator jitter (std over the "
+                 f"{window_length_s(first):g}-s windows after {_steady_start(first):g} s); error bars: 95% intervals, at most "
+                 f"$\\pm${widest:.4f} rad on the top row, narrower than the markers. The phase of the trace is scaled, its amplitude "
+                 "is not; every scale sees the same noise realisations. 'lowest': the tracker with the lowest mean discriminator "
+                 "jitter whose paired 95% interval to each other tracker lies below 0; 'A~B': A has the lower mean, the paired "
+                 "interval to B includes 0.")
+    figure_legend(fig, *handles_of(*axes.ravel()), ncol=2, fontsize=7.5)
     return fig

@@ -69,6 +69,11 @@ SEC_RX = "Zhao et al.: receiver through jamming"
 SYNTHETIC = data_title("synthetic SKYDEL-like")
 LABELS = {"pll": "Costas PLL (1 ms)", "mm_none": "MM KF, no bit prediction", "mm_mask": "MM KF, upload-robust mask", "mm_iode": "MM KF, IODE check"}
 COLORS = {"pll": "tab:blue", "mm_none": "tab:orange", "mm_mask": "tab:green", "mm_iode": "tab:red"}
+# zhao_receiver.pll_lock: the PLL with lock detector, frequency hold and FLL re-pull (scintrack.trackers.pll_lock)
+LABELS["pll_fll"] = "Costas PLL, hold/FLL"
+COLORS["pll_fll"] = "tab:purple"
+#: the pll_fll variant's frequency while its own detector reads out of lock (hold / FLL re-pull)
+FLL_OUT = "tab:brown"
 _RX = {"receiver": paths.ZHAO_RECEIVER}
 #: a frequency error beyond this (Hz) for good is a loop that has run away: 1 / (2 x 20 ms)
 FREQ_LOCK_HZ = 25.0
@@ -93,7 +98,7 @@ def _rx_and_dataset(config) -> dict[str, str]:
 
 def no_lock_rmse(tracker: str) -> float:
     """The RMSE of ``tracker``'s phase error without lock (its wrapping interval's)."""
-    return NO_LOCK_RMSE_PI if tracker == "pll" else NO_LOCK_RMSE_2PI
+    return NO_LOCK_RMSE_PI if tracker in ("pll", "pll_fll") else NO_LOCK_RMSE_2PI
 
 
 def _onset(ax, res: xr.Dataset) -> None:
@@ -124,6 +129,23 @@ def _lock_handle(lock: dict):
 def _true_doppler(dataset: xr.Dataset, prn: int, t: np.ndarray) -> np.ndarray:
     k = int(np.flatnonzero(dataset["prn"].values == prn)[0])
     return np.interp(t, dataset["receive_time"].isel(sv=k).values, dataset["doppler"].isel(sv=k).values)
+
+
+def _pll_fll_traces(res: xr.Dataset, keep: np.ndarray, t: np.ndarray, truth: np.ndarray, ax2, ax3):
+    """The ``pll_fll`` variant (``zhao_receiver.pll_lock``) beside the bare PLL in Figs. 6 and 9: its reconstructed
+    frequency and frequency error, in its colour while its own detector reads in lock and in :data:`FLL_OUT`
+    while it holds / re-pulls (lost lock drawn as such, not as an error).  Returns (frequency error, share of
+    the span out of lock), or None without the variant."""
+    if "pll_fll" not in res["tracker"].values:
+        return None
+    _, ferr = _example(res, "pll_fll", "frequency")
+    ferr = ferr[keep]
+    own = (res["example_pll_fll_locked"].isel(prn=0).values[keep] > 0) if "example_pll_fll_locked" in res else np.ones(len(t), dtype=bool)
+    for ok, color in ((own, COLORS["pll_fll"]), (~own, FLL_OUT)):
+        part = np.where(ok, ferr, np.nan)
+        ax2.plot(t, truth + part, lw=0.7, color=color)
+        ax3.plot(t, part, lw=0.6, color=color)
+    return ferr, float(np.mean(~own))
 
 
 def _pll_figure(res: xr.Dataset, dataset: xr.Dataset, lock: dict, clean: bool, title: str):
@@ -160,8 +182,10 @@ def _pll_figure(res: xr.Dataset, dataset: xr.Dataset, lock: dict, clean: bool, t
             _shade_out_of_lock(ax, t, locked)
         if not clean:
             _onset(ax, res)
-    if np.isfinite(ferr_cut).any():
-        lo, hi = np.nanmin(ferr_cut), np.nanmax(ferr_cut)
+    fll = _pll_fll_traces(res, keep, t, truth, ax2, ax3)
+    shown = ferr_cut if fll is None else np.concatenate([ferr_cut, fll[0]])
+    if np.isfinite(shown).any():
+        lo, hi = np.nanmin(shown), np.nanmax(shown)
         pad = 0.15 * max(hi - lo, 0.2)
         ax3.set_ylim(lo - pad, hi + pad * 2.5)  # room above for the "ran away" label
     handles = [Line2D([], [], color="0.6", lw=1.6), Line2D([], [], color="tab:orange", lw=0.9)]
@@ -176,8 +200,12 @@ def _pll_figure(res: xr.Dataset, dataset: xr.Dataset, lock: dict, clean: bool, t
     if t_lost is not None:
         handles.append(Line2D([], [], color="k", marker="x", ls="none", mew=2))
         labels.append(f"loop ran away: frequency error beyond ±{FREQ_LOCK_HZ:g} Hz for good (trace cut)")
+    if fll is not None:
+        handles += [Line2D([], [], color=COLORS["pll_fll"], lw=0.9), Line2D([], [], color=FLL_OUT, lw=0.9)]
+        labels += [f"{LABELS['pll_fll']}: in lock (its own detector)",
+                   f"{LABELS['pll_fll']}: out of lock, frequency held / FLL re-pull ({100 * fll[1]:.0f}% of the span)"]
     trial = int(res.attrs["figure_trial"])
-    sub = f"PRN {prn}, trial {trial}, 3rd-order Costas PLL at 1 ms"
+    sub = f"PRN {prn}, trial {trial}, 3rd-order Costas PLL at 1 ms" + (" (phase error, shading: the bare PLL)" if fll is not None else "")
     if clean:
         sub += "\n" + CLEAN_NOTE.format(onset=onset)
     fig.suptitle(f"{title}\n{sub}\n({SYNTHETIC})", fontsize=9)
@@ -225,7 +253,20 @@ def verdict_fig09(receiver, dataset, lock=None):
     lock_words = "as in the paper" if in_lock < 0.1 else "the paper's PLL lost lock"
     runaway = " (the loop runs away)" if status == "differs" else ""
     return Verdict(status, f"PLL in lock {100 * in_lock:.1f}% of jammed time, phase RMSE {rmse:.3f} rad (no lock {NO_LOCK_RMSE_PI:.3f}), {lock_words}; "
-                           f"jammed frequency error std {fstd:.0f} Hz (median over trials x SVs){runaway} vs paper 'up to {PAPER_PLL_FREQ_HZ:g} Hz'")
+                           f"jammed frequency error std {fstd:.0f} Hz (median over trials x SVs){runaway} vs paper 'up to {PAPER_PLL_FREQ_HZ:g} Hz'"
+                           + _pll_fll_verdict(receiver))
+
+
+def _pll_fll_verdict(receiver) -> str:
+    """The same rule on the ``pll_fll`` variant (``zhao_receiver.pll_lock``), as a sentence; empty without it."""
+    if "pll_fll" not in receiver["tracker"].values:
+        return ""
+    in_lock = float(np.mean(receiver["sv_in_lock_jammed"].sel(tracker="pll_fll").values))
+    fstd = np.sqrt(receiver["sv_freq_var_jammed"].sel(tracker="pll_fll").values)
+    ok = in_lock < 0.1 and float(np.median(fstd)) <= 2 * PAPER_PLL_FREQ_HZ
+    return (f". {LABELS['pll_fll']} (a receiver's loop): in lock {100 * in_lock:.1f}% of jammed time, frequency error std "
+            f"{float(np.median(fstd)):.1f} Hz (median; max {float(np.max(fstd)):.1f}): by the same rule "
+            f"{'reproduced' if ok else 'not reproduced'}")
 
 
 @figure("zhao_fig09", "fig09_pll_jammed", paper=PAPER, section=SEC_RX, inputs=_rx_and_dataset, kwargs=_lock_kwargs,
@@ -563,7 +604,7 @@ def zhao_sweep(*points):
         for j, tr in enumerate(s["trackers"]):
             scale = no_lock_rmse(tr) if key == "phase_rmse_jammed" else 1.0
             m, lo, hi = (s[key][w][j] / scale for w in ("mean", "lo", "hi"))
-            h = ax.errorbar(s["cn0"] + 0.12 * (j - 1.5), m, yerr=[m - lo, hi - m], marker="o", ms=3, capsize=2, lw=1,
+            h = ax.errorbar(s["cn0"] + 0.12 * (j - (len(s["trackers"]) - 1) / 2), m, yerr=[m - lo, hi - m], marker="o", ms=3, capsize=2, lw=1,
                             color=COLORS.get(tr), label=LABELS.get(tr, tr))
             if ax is axes[0]:
                 handles.append(h)

@@ -17,7 +17,17 @@ the best.  These tables put numbers with 95% intervals on those statements:
   interval: from one trial the verdict cannot be stated);
 * **eq. (12) sensitivity** (``susi_table_alpha``): the SAKF with other gain
   weightings ``w = alpha (1 + Phi3/phi_ref)^-gamma`` and without the
-  scintillation process noise, beside the AKF and the default SAKF.
+  scintillation process noise, beside the AKF and the default SAKF;
+* **the AKF's cause** (``susi_table_akf_qjerk``, pre-declared reading): the
+  AKF's steady-state loop bandwidth with the oscillator terms of Q only, the
+  Doppler-jerk PSD q_jerk only and both (rule ``susi_akf_bandwidth``), and its
+  jitter beside the PLL's for q_jerk over five decades, with where (if
+  anywhere) its discriminator jitter meets the PLL's;
+* **in-band strength** (``susi_table_inband``, pre-declared reading): the
+  three loops with the scenario's scintillation phase scaled by 0.1-2
+  (``trace.phase_scale``, amplitude unchanged; scale 1 is the chapter run),
+  and per scale the tracker with the lowest discriminator jitter, stated with
+  paired intervals.
 
 Every number (trials, C/N0, Ts, windows) comes from the result attributes;
 titles and notes say when a trace is a SYNTHETIC SURROGATE.
@@ -611,4 +621,251 @@ def susi_table_real_indices(biscef: xr.Dataset, *indices: xr.Dataset) -> dict:
         "table_real_event": (real_event_frame(biscef),
                              f"Susi et al. 2014: the REAL event chosen for the high-latitude scenario ({ev['station_name']}, GPS PRN "
                              f"{int(ev['prn'])}, {ev['time_utc']} UTC)", note),
+    }
+
+
+# --- susi_table_akf_qjerk and susi_table_inband: the pre-declared readings of the AKF's cause and of the in-band
+# strength (docs/REPRODUCTION.md, "Susi 2014 and Zhao: readings of the open verdicts") ---------------------------
+
+QJERK = "susi_akf_qjerk"
+INBAND = "susi_inband"
+#: the ``product`` attribute of results/susi_2014/akf_qjerk_bandwidth.nc (rule susi_akf_bandwidth)
+BANDWIDTH_PRODUCT = "susi_akf_bandwidth"
+INBAND_TRACKERS = (REFERENCE, AKF, SAKF)
+#: the Q terms of the bandwidth file and their column names
+BANDWIDTH_TERMS = {"both": "B_L, oscillator + q_jerk [Hz]", "oscillator": "B_L, oscillator only [Hz]", "q_jerk": "B_L, q_jerk only [Hz]"}
+
+
+def versus(lo: float, hi: float, other: str = "PLL") -> str:
+    """Where a paired 95% interval lies: ``below <other>``, ``above <other>`` or ``meets <other>`` (it includes 0)."""
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        return ""
+    return f"below {other}" if hi < 0 else f"above {other}" if lo > 0 else f"meets {other} (interval includes 0)"
+
+
+def _qjerk_inputs(config):
+    """The bandwidth file (rule susi_akf_bandwidth), then the q_jerk sweep's result of each scenario."""
+    from ...pipeline.params import SUSI_AKF_BANDWIDTH
+
+    scenarios = experiment_scenarios(config, QJERK)
+    return {"bandwidth": SUSI_AKF_BANDWIDTH, **{f"{QJERK}__{sc}": paths.exp_result(QJERK, sc) for sc in scenarios}} if scenarios else {}
+
+
+def _qjerk_surrogate(config) -> bool:
+    return any_surrogate(config, experiment_scenarios(config, QJERK))
+
+
+def qjerk_label(q: float) -> str:
+    return f"AKF PLL, q_jerk = {q:g} Hz^2/s^3"
+
+
+def qjerk_long(bandwidth: xr.Dataset, results: Sequence[xr.Dataset]) -> pd.DataFrame:
+    """One row per scenario x tracker (the PLL, then the AKFs by q_jerk): steady-state bandwidth per Q term, discriminator
+    and tracking-error jitter with 95% intervals and the paired difference to the PLL."""
+    rows = []
+    for res in results:
+        sc = str(res.attrs["scenario"])
+        label = tracker_labels(res)
+        akfs = sorted((str(t) for t in bandwidth["tracker"].values if str(t) in res["tracker"].values),
+                      key=lambda t: float(bandwidth["q_jerk_hz2_s3"].sel(tracker=t)))
+        for tr in [REFERENCE, *akfs]:
+            if not has_jitter(res, tr):
+                continue
+            is_akf = tr != REFERENCE
+            q = float(bandwidth["q_jerk_hz2_s3"].sel(tracker=tr)) if is_akf else np.nan
+            row = {"scenario": sc, "data": short_source(res), "tracker": tr, "label": qjerk_label(q) if is_akf else label.get(tr, tr),
+                   "trials": int(res["n_trials"]), "q_jerk_hz2_s3": q}
+            for term in BANDWIDTH_TERMS:
+                row[f"bandwidth_{term}_hz"] = (float(bandwidth["bandwidth_hz"].sel(scenario=sc, tracker=tr, term=term))
+                                               if is_akf and sc in bandwidth["scenario"].values else np.nan)
+            for metric in METRICS:
+                m, lo, hi = ci(trial_jitter(res, tr, metric))
+                d, dlo, dhi = paired(trial_jitter(res, tr, metric), trial_jitter(res, REFERENCE, metric)) if is_akf else (np.nan,) * 3
+                row.update({f"{metric}_jitter_rad": m, f"{metric}_ci95_lo": lo, f"{metric}_ci95_hi": hi,
+                            f"{metric}_minus_pll_rad": d, f"{metric}_minus_pll_ci95_lo": dlo, f"{metric}_minus_pll_ci95_hi": dhi})
+            row["discriminator_vs_pll"] = versus(row["discriminator_minus_pll_ci95_lo"], row["discriminator_minus_pll_ci95_hi"])
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def qjerk_meeting(long: pd.DataFrame, scenario: str) -> str:
+    """Where, in the q_jerk sweep, the AKF's discriminator jitter meets the PLL's on ``scenario``: the q_jerk whose paired
+    interval includes 0, else the two neighbouring values between which the paired difference changes sign (with the
+    crossing by linear interpolation in log q_jerk), else the sweep's closest value."""
+    akf = long[(long["scenario"] == scenario) & np.isfinite(long["q_jerk_hz2_s3"])].sort_values("q_jerk_hz2_s3")
+    if akf.empty:
+        return ""
+    meets = akf[akf["discriminator_vs_pll"].str.startswith("meets")]
+    if not meets.empty:
+        return "meets the PLL at q_jerk = " + ", ".join(f"{q:g}" for q in meets["q_jerk_hz2_s3"]) + " Hz^2/s^3 (paired interval includes 0)"
+    q, d = akf["q_jerk_hz2_s3"].to_numpy(float), akf["discriminator_minus_pll_rad"].to_numpy(float)
+    for k in range(len(q) - 1):
+        if np.sign(d[k]) != np.sign(d[k + 1]):
+            x = np.log10(q[k]) + (np.log10(q[k + 1]) - np.log10(q[k])) * d[k] / (d[k] - d[k + 1])
+            return (f"crosses the PLL between q_jerk = {q[k]:g} and {q[k + 1]:g} Hz^2/s^3 (about {10 ** x:.2g} by linear "
+                    "interpolation in log q_jerk)")
+    best = int(np.argmin(np.abs(d)))
+    side = "above" if d[best] > 0 else "below"
+    return (f"does not meet the PLL within the sweep: every AKF is {side} it, closest at q_jerk = {q[best]:g} Hz^2/s^3 "
+            f"({d[best]:+.4f} rad)")
+
+
+def qjerk_grid(long: pd.DataFrame) -> pd.DataFrame:
+    rows = []
+    for r in long.to_dict("records"):
+        row = {"scenario": r["scenario"], "data": r["data"], "tracker": r["label"], "trials": r["trials"],
+               "q_jerk [Hz^2/s^3]": "" if not np.isfinite(r["q_jerk_hz2_s3"]) else f"{r['q_jerk_hz2_s3']:g}"}
+        for term, col in BANDWIDTH_TERMS.items():
+            v = r[f"bandwidth_{term}_hz"]
+            row[col] = "" if not np.isfinite(v) else f"{v:.3g}"
+        for metric in METRICS:
+            row[f"{METRIC_TEXT[metric]} [rad]"] = fmt_ci(r[f"{metric}_jitter_rad"], r[f"{metric}_ci95_lo"], r[f"{metric}_ci95_hi"])
+            row[f"{METRIC_TEXT[metric]} minus PLL [rad]"] = fmt_ci(r[f"{metric}_minus_pll_rad"], r[f"{metric}_minus_pll_ci95_lo"],
+                                                                   r[f"{metric}_minus_pll_ci95_hi"])
+            if metric == "discriminator":
+                row["discriminator jitter vs PLL"] = r["discriminator_vs_pll"]
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+@table("susi_table_akf_qjerk", ["table_akf_qjerk", "table_akf_qjerk_long"], paper=PAPER, section=SECTION, inputs=_qjerk_inputs,
+       surrogate=_qjerk_surrogate)
+def susi_table_akf_qjerk(bandwidth: xr.Dataset, *results: xr.Dataset) -> dict:
+    """The AKF PLL's steady-state loop bandwidth split into its oscillator and q_jerk terms, and its jitter beside the PLL's,
+    for q_jerk over five decades (the chapter does not give it)."""
+    long = qjerk_long(bandwidth, results)
+    meeting = "; ".join(f"{sc}: {qjerk_meeting(long, sc)}" for sc in dict.fromkeys(long["scenario"]))
+    clocks = ", ".join(f"{sc}: {bandwidth['clock'].sel(scenario=sc).item()} at {float(bandwidth['cn0_dbhz'].sel(scenario=sc)):g} dB-Hz"
+                       for sc in bandwidth["scenario"].values)
+    note = ("B_L: noise bandwidth sum(h^2)/(2 Ts) of the steady-state loop, the Riccati gain of the AKF's Q and R = eq. (10) at the "
+            "scenario's C/N0 (rule susi_akf_bandwidth, scintrack.experiments.susi_akf_bandwidth): with the whole Q (oscillator of eqs. "
+            "5-6 + the Doppler-jerk PSD q_jerk on the rate state), with q_jerk = 0 (oscillator only: a second-order loop) and with the "
+            f"oscillator's PSDs at 0 (q_jerk only). Oscillators: {clocks}. The chapter gives no q_jerk; the sweep covers five decades "
+            f"around the shared value, every variant run on the same realisations as the PLL. Where the AKF meets the PLL: {meeting}. "
+            "vs PLL: below / above = the paired 95% interval of the discriminator-jitter difference lies below / above 0. "
+            + _jitter_method(results[0]) + " " + _scenario_notes(results))
+    title = f"Susi et al. 2014: the AKF PLL's bandwidth and jitter against its Doppler-jerk PSD q_jerk{_data_title(results)}"
+    return {"table_akf_qjerk": (qjerk_grid(long), title, note), "table_akf_qjerk_long": (long, title + ", long form", note)}
+
+
+def _inband_inputs(config):
+    """The chapter run of each unscaled scenario (scale 1) whose trace the in-band sweep scales, then the sweep's results."""
+    scaled = experiment_scenarios(config, INBAND)
+    traces = {config["scenarios"][sc]["trace"]["name"] for sc in scaled if "trace" in config["scenarios"][sc]}
+    base = [sc for sc in experiment_scenarios(config, CHAPTER)
+            if "trace" in config["scenarios"][sc] and config["scenarios"][sc]["trace"]["name"] in traces]
+    return {**{f"{CHAPTER}__{sc}": paths.exp_result(CHAPTER, sc) for sc in base}, **{f"{INBAND}__{sc}": paths.exp_result(INBAND, sc) for sc in scaled}}
+
+
+def _inband_surrogate(config) -> bool:
+    return any_surrogate(config, experiment_scenarios(config, INBAND))
+
+
+def phase_scale(ds: xr.Dataset) -> float:
+    """The factor on the trace's scintillation phase of a result (1 for the unscaled scenario)."""
+    return float(ds.attrs.get("trace_phase_scale", 1.0))
+
+
+def site(ds: xr.Dataset) -> str:
+    """The trace a Susi result tracks (``high_latitude``, ``equatorial``)."""
+    return str(ds.attrs.get("trace_name", ds.attrs["scenario"]))
+
+
+def inband_results(results: Sequence[xr.Dataset]) -> dict[str, list[xr.Dataset]]:
+    """site -> its results ordered by phase scale (sites in input order)."""
+    out: dict[str, list[xr.Dataset]] = {}
+    for res in results:
+        out.setdefault(site(res), []).append(res)
+    return {s: sorted(v, key=phase_scale) for s, v in out.items()}
+
+
+def lowest_verdict(res: xr.Dataset, trackers: Sequence[str] = INBAND_TRACKERS) -> tuple[str, str]:
+    """(tracker with the lowest mean discriminator jitter, verdict text): ``lowest`` when its paired 95% interval to every other
+    tracker lies below 0, else ``lowest mean, tied with ...`` naming the trackers whose interval includes 0."""
+    trs = [t for t in trackers if has_jitter(res, t)]
+    if not trs:
+        return "", ""
+    label = tracker_labels(res)
+    best = min(trs, key=lambda t: float(np.mean(trial_jitter(res, t))))
+    ties = [t for t in trs if t != best and paired(trial_jitter(res, best), trial_jitter(res, t))[2] >= 0]
+    if ties:
+        return best, f"{label.get(best, best)} lowest mean, tied with {', '.join(label.get(t, t) for t in ties)} (paired interval includes 0)"
+    return best, f"{label.get(best, best)} lowest (every paired interval below 0)"
+
+
+def inband_long(results: Sequence[xr.Dataset]) -> pd.DataFrame:
+    """One row per site x scale x tracker: jitter with 95% intervals and the paired differences to the PLL and the AKF."""
+    rows = []
+    for s, group in inband_results(results).items():
+        for res in group:
+            label = tracker_labels(res)
+            best, text = lowest_verdict(res)
+            for tr in INBAND_TRACKERS:
+                if not has_jitter(res, tr):
+                    continue
+                row = {"site": s, "scenario": res.attrs["scenario"], "experiment": res.attrs.get("experiment", ""), "data": short_source(res),
+                       "phase_scale": phase_scale(res), "tracker": tr, "label": label.get(tr, tr), "trials": int(res["n_trials"])}
+                for metric in METRICS:
+                    v = trial_jitter(res, tr, metric)
+                    row.update(dict(zip((f"{metric}_jitter_rad", f"{metric}_ci95_lo", f"{metric}_ci95_hi"), ci(v))))
+                    for other, key in ((REFERENCE, "pll"), (AKF, "akf")):
+                        d = paired(v, trial_jitter(res, other, metric)) if tr != other and has_jitter(res, other) else (np.nan,) * 3
+                        row.update(dict(zip((f"{metric}_minus_{key}_rad", f"{metric}_minus_{key}_ci95_lo", f"{metric}_minus_{key}_ci95_hi"), d)))
+                row.update({"lowest": best == tr, "verdict": text})
+                rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def inband_verdicts(long: pd.DataFrame) -> pd.DataFrame:
+    """One row per site x scale: each tracker's discriminator jitter, the paired differences and the verdict."""
+    rows = []
+    for (s, scale), g in long.groupby(["site", "phase_scale"], sort=False):
+        g = g.set_index("tracker")
+        row = {"site": s, "phase scale": f"{scale:g}", "data": g["data"].iloc[0], "trials": int(g["trials"].iloc[0])}
+        for tr in INBAND_TRACKERS:
+            if tr in g.index:
+                r = g.loc[tr]
+                row[f"{r.label} [rad]"] = fmt_ci(r.discriminator_jitter_rad, r.discriminator_ci95_lo, r.discriminator_ci95_hi)
+        for a, b, key in ((AKF, REFERENCE, "pll"), (SAKF, REFERENCE, "pll"), (SAKF, AKF, "akf")):
+            if a in g.index and b in g.index:
+                r = g.loc[a]
+                row[f"{r.label} minus {g.loc[b].label} [rad]"] = fmt_ci(r[f"discriminator_minus_{key}_rad"], r[f"discriminator_minus_{key}_ci95_lo"],
+                                                                     r[f"discriminator_minus_{key}_ci95_hi"])
+        row["lowest discriminator jitter"] = g["verdict"].iloc[0]
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def inband_grid(long: pd.DataFrame) -> pd.DataFrame:
+    rows = []
+    for r in long.itertuples():
+        row = {"site": r.site, "phase scale": f"{r.phase_scale:g}", "data": r.data, "tracker": r.label, "trials": r.trials}
+        for metric in METRICS:
+            row[f"{METRIC_TEXT[metric]} [rad]"] = fmt_ci(getattr(r, f"{metric}_jitter_rad"), getattr(r, f"{metric}_ci95_lo"), getattr(r, f"{metric}_ci95_hi"))
+            row[f"{METRIC_TEXT[metric]} minus PLL [rad]"] = fmt_ci(getattr(r, f"{metric}_minus_pll_rad"), getattr(r, f"{metric}_minus_pll_ci95_lo"),
+                                                                   getattr(r, f"{metric}_minus_pll_ci95_hi"))
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def inband_note(results: Sequence[xr.Dataset]) -> str:
+    return ("In-band strength (pre-declared reading): the scintillation PHASE of each scenario's trace multiplied by the phase scale "
+            "(scenario option trace.phase_scale), its amplitude unchanged; each scaled scenario draws the unscaled one's noise, clock and "
+            f"initial-phase realisations, so only the phase differs. Scale 1 is the {CHAPTER} run of the unscaled scenario, the others the "
+            f"{INBAND} run. Verdict: the tracker with the lowest mean discriminator jitter; 'lowest' when its paired 95% interval to each "
+            "other tracker lies below 0, 'tied' naming the trackers whose interval includes 0. " + _jitter_method(results[0]) + " "
+            + _scenario_notes(results))
+
+
+@table("susi_table_inband", ["table_inband", "table_inband_verdict", "table_inband_long"], paper=PAPER, section=SECTION, inputs=_inband_inputs,
+       surrogate=_inband_surrogate)
+def susi_table_inband(*results: xr.Dataset) -> dict:
+    """PLL, AKF PLL and SAKF PLL jitter against the strength of the scintillation phase (scaled 0.1-2), and which is lowest."""
+    long = inband_long(results)
+    note = inband_note(results)
+    title = f"Susi et al. 2014: jitter against the strength of the scintillation phase (in-band sweep){_data_title(results)}"
+    return {
+        "table_inband": (inband_grid(long), title, note),
+        "table_inband_verdict": (inband_verdicts(long), title + ": lowest discriminator jitter per scale", note),
+        "table_inband_long": (long, title + ", long form", note),
     }
