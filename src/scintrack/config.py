@@ -7,7 +7,6 @@ first violation into one line that names the key and the fix.
 
 from __future__ import annotations
 
-import copy
 import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
@@ -17,18 +16,7 @@ from typing import Any
 import yaml
 
 from .errors import ConfigError
-from .yamlio import DuplicateKeyError, yaml_load
-
-
-def deep_merge(base: Mapping[str, Any], overlay: Mapping[str, Any]) -> dict[str, Any]:
-    """Recursive dict merge, as Snakemake merges ``--configfile`` overlays."""
-    out = copy.deepcopy(dict(base))
-    for key, value in overlay.items():
-        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
-            out[key] = deep_merge(out[key], value)
-        else:
-            out[key] = copy.deepcopy(value)
-    return out
+from .yamlio import DuplicateKeyError, deep_merge, yaml_load
 
 
 def load_config(paths: Iterable[str | Path]) -> dict[str, Any]:

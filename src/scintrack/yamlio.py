@@ -25,6 +25,8 @@ imports into its code version.
 
 from __future__ import annotations
 
+import copy
+from collections.abc import Mapping
 from typing import Any
 
 import yaml
@@ -68,3 +70,14 @@ SAFE_LOADER = UniqueKeySafeLoader
 def yaml_load(text: str | bytes) -> Any:
     """``yaml.safe_load(text)`` with :data:`SAFE_LOADER`: the same values, and a :class:`DuplicateKeyError` for a repeated key."""
     return yaml.load(text, Loader=SAFE_LOADER)  # noqa: S506 (a safe loader)
+
+
+def deep_merge(base: Mapping[str, Any], overlay: Mapping[str, Any]) -> dict[str, Any]:
+    """Recursive dict merge, as Snakemake merges ``--configfile`` overlays."""
+    out = copy.deepcopy(dict(base))
+    for key, value in overlay.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = deep_merge(out[key], value)
+        else:
+            out[key] = copy.deepcopy(value)
+    return out

@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from ..config import deep_merge
 from ..errors import ConfigError
+from ..yamlio import deep_merge
 
 #: Jammer onset of the clean scenario (s): after any receive time of the scenario, i.e. the jammer never starts.
 CLEAN_ONSET_S = 1.0e9
