@@ -303,3 +303,54 @@ def strongest_minute(ds: xr.Dataset) -> dict[str, Any]:
         "time_utc": str(np.datetime_as_string(row["time"].values, unit="s")),
         **{key: float(row[key]) for key in ("elevation", "azimuth", "phi60", "s4", "s4_correction", "T", "p", "cn0")},
     }
+
+
+#: the second, pre-declared event choice (docs/REPRODUCTION.md, "Real index event, second choice")
+RUN_CN0_MIN_DBHZ = 35.0
+RUN_VARIABLES = ("phi60", "s4", "T", "p", "cn0", "elevation")
+
+
+def strongest_run(ds: xr.Dataset, minutes: int, cn0_min_dbhz: float = RUN_CN0_MIN_DBHZ) -> dict[str, Any]:
+    """The run of ``minutes`` consecutive minutes of one satellite at one station with the largest median Phi60.
+
+    A run's minutes are 60 s apart (one row each), every one with a finite
+    Phi60, T, p and S4 and a C/N0 of at least ``cn0_min_dbhz``; the rows are
+    those of ``ds`` (already at the elevation mask).  Of equal medians the
+    earliest run wins.  Returns the station, PRN, first minute (UTC) and the
+    run's per-minute values (lists, in time order) under :data:`RUN_VARIABLES`
+    plus ``time_utc``.
+    """
+    import numpy as np
+
+    if minutes < 1:
+        raise ValueError(f"a run needs at least one minute, not {minutes}")
+    station = np.asarray(ds["station"].values).astype(str)
+    prn = np.asarray(ds["prn"].values)
+    t = np.asarray(ds["time"].values).astype("datetime64[s]").astype(np.int64)
+    values = {k: np.asarray(ds[k].values, dtype=float) for k in RUN_VARIABLES}
+    usable = np.isfinite(values["phi60"]) & np.isfinite(values["T"]) & np.isfinite(values["p"]) & np.isfinite(values["s4"])
+    usable &= np.nan_to_num(values["cn0"], nan=-np.inf) >= cn0_min_dbhz
+    best: tuple[float, int, np.ndarray] | None = None
+    for code in sorted(set(station)):
+        for sv in np.unique(prn[station == code]):
+            rows = np.flatnonzero((station == code) & (prn == sv))
+            rows = rows[np.argsort(t[rows], kind="stable")]
+            for i in range(rows.size - minutes + 1):
+                run = rows[i:i + minutes]
+                if not usable[run].all() or not np.all(np.diff(t[run]) == 60):
+                    continue
+                med = float(np.median(values["phi60"][run]))
+                if best is None or med > best[0] or (med == best[0] and t[run[0]] < best[1]):
+                    best = (med, int(t[run[0]]), run)
+    if best is None:
+        raise BiscefFormatError(f"no run of {minutes} consecutive usable minutes (C/N0 >= {cn0_min_dbhz:g} dB-Hz, Phi60, T, p, S4 given) "
+                                "in the BiScEF rows; shorten the run or check the files")
+    run = best[2]
+    code = str(station[run[0]])
+    return {
+        "station": code, "station_name": station_name(code), "prn": int(prn[run[0]]), "minutes": int(minutes),
+        "start_utc": str(np.datetime_as_string(np.asarray(ds["time"].values)[run[0]], unit="s")),
+        "median_phi60": best[0], "cn0_min_dbhz": float(cn0_min_dbhz),
+        "time_utc": [str(x) for x in np.datetime_as_string(np.asarray(ds["time"].values)[run], unit="s")],
+        **{k: [float(x) for x in values[k][run]] for k in RUN_VARIABLES},
+    }
