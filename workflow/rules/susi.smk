@@ -25,6 +25,29 @@ rule susi_surrogate:
         "../scripts/make_surrogate.py"
 
 
+rule susi_index_trace:
+    """SURROGATE trace of the real-index event: the pre-declared run of REAL BiScEF minutes, a phase with each minute's real slope p."""
+    input:
+        indices=P.SUSI_BISCEF_INDICES,
+    output:
+        ensure("data/synthetic/susi_index_{name}/{version}.nc", non_empty=True),
+    params:
+        dataset=lambda wc: P.susi_trace(config, wc.name)["real_indices"],
+        code=code("make_index_trace.py"),
+    wildcard_constraints:
+        name=r"[A-Za-z0-9_-]+",
+    log:
+        "logs/data/susi_index_{name}_{version}.log",
+    benchmark:
+        "results/benchmarks/susi_index_trace/{name}_{version}.tsv"
+    threads: 1
+    resources:
+        mem_mb=RES.mem_mb("susi_index_trace"),
+        runtime=RES.runtime("susi_index_trace"),
+    script:
+        "../scripts/make_index_trace.py"
+
+
 rule susi_indices:
     """S4 and Phi60 (60 s), Phi3 and T, p (3 s) of one Susi scenario (Figs. 3 and 6)."""
     input:

@@ -25,8 +25,13 @@ not fix.  This module makes it:
   11 196 GPS minutes at >= 35 dB-Hz of both stations, Phi60^2 is a median
   3 % (5-95 %: 0.35-67 %) of ``int T f^-p |H|^2`` over 0.1-25 Hz.  So
   ``phi60`` (the default) keeps the real slope ``p`` and sets ``T`` so that
-  the detrended variance is the real Phi60^2 (Phi60 is the direct
-  measurement of the phase variance); ``T`` uses the real ``Ts1`` as given.
+  the expected square of the trace's 60-s sigma_phi is the real Phi60^2
+  (:func:`detrended_variance`; Phi60 is the receiver's direct measurement
+  of the phase variance); ``T`` uses the real ``Ts1`` as given.  The
+  high-pass is the package's zero-phase form (``|H|^4``,
+  :func:`~scintrack.estimators.sigma_phi.detrend_phase`), as every sigma_phi
+  of the package; the receivers filter causally (``|H|^2``), which leaves a
+  little more power just above 0.1 Hz in their Phi60.
 * **amplitude**: intensity ``exp(sigma g - sigma^2 / 2)`` with ``g`` an
   independent unit-variance Gaussian of the same shaping (normalised) and
   ``sigma^2 = ln(1 + S4^2)``, the log-normal intensity whose S4 is the
@@ -47,7 +52,7 @@ import numpy as np
 import xarray as xr
 
 from ..estimators.s4 import window_s4
-from ..estimators.sigma_phi import detrend_phase, window_sigma_phi
+from ..estimators.sigma_phi import detrend_phase
 from ..seeding import rng_for
 
 GENERATOR = "scintrack.data.index_trace"
@@ -62,45 +67,47 @@ def power_law_filter(n: int, ts: float, T: float, p: float, f_floor_hz: float) -
     return np.sqrt(psd / (2.0 * ts))
 
 
-def crossfade_weights(n: int, ts: float, n_minutes: int, minute_s: float = MINUTE_S) -> np.ndarray:
-    """(n_minutes, n) linear interpolation weights between minute centres; they sum to 1 at every sample."""
-    t = np.arange(n) * ts
-    centres = (np.arange(n_minutes) + 0.5) * minute_s
-    eye = np.eye(n_minutes)
-    return np.array([np.interp(t, centres, eye[k]) for k in range(n_minutes)])
-
-
-def detrended_variance(ts: float, T: float, p: float, f_floor_hz: float, detrend_hz: float, n: int = 2**20) -> float:
-    """Variance of the ``T f^-p`` process after the zero-phase high-pass: ``int_0^{1/(2 ts)} S(f) |H(f)|^2 df``."""
-    from ..estimators.sigma_phi import detrend_sos
+def detrended_variance(ts: float, T: float, p: float, f_floor_hz: float, detrend_hz: float, window_s: float = MINUTE_S,
+                       n: int = 2**20) -> float:
+    """Expected variance about its own mean, over one ``window_s`` window, of the ``T f^-p`` process after the zero-phase
+    high-pass ``H``: ``int_0^{1/(2 ts)} S(f) |H(f)|^4 (1 - sinc^2(f window_s)) df`` (``|H|^4``: the filter runs forward and
+    backward; the sinc term is the power the window's mean removes), i.e. the expected square of a Phi60-like index."""
     from scipy import signal
+
+    from ..estimators.sigma_phi import detrend_sos
 
     f = np.fft.rfftfreq(n, ts)[1:]
     _, h = signal.sosfreqz(detrend_sos(ts, detrend_hz), worN=f, fs=1.0 / ts)
     psd = T * np.maximum(f, f_floor_hz) ** (-p)
-    return float(np.sum(psd * np.abs(h) ** 4) * (f[1] - f[0]))
+    return float(np.sum(psd * np.abs(h) ** 4 * (1.0 - np.sinc(f * window_s) ** 2)) * (f[1] - f[0]))
 
 
-def strengths(run: Mapping[str, Any], ts: float, f_floor_hz: float, detrend_hz: float, strength: str) -> np.ndarray:
-    """Per-minute ``T`` of the trace: the real ``T`` (``strength: T``), or the ``T`` whose detrended variance is the
-    minute's real Phi60 squared at the minute's real slope (``strength: phi60``)."""
+def strengths(run: Mapping[str, Any], ts: float, f_floor_hz: float, detrend_hz: float, strength: str,
+              window_s: float = MINUTE_S) -> np.ndarray:
+    """Per-minute ``T`` of the trace: the real ``T`` (``strength: T``), or the ``T`` whose expected squared window
+    sigma_phi (:func:`detrended_variance`) is the minute's real Phi60 squared at the minute's real slope (``strength: phi60``)."""
     T, p = np.asarray(run["T"], dtype=float), np.asarray(run["p"], dtype=float)
     if strength == "T":
         return T
     if strength != "phi60":
         raise ValueError(f"strength must be 'phi60' or 'T', not {strength!r}")
     phi = np.asarray(run["phi60"], dtype=float)
-    return np.array([ph**2 / detrended_variance(ts, 1.0, pk, f_floor_hz, detrend_hz) for ph, pk in zip(phi, p)])
+    return np.array([ph**2 / detrended_variance(ts, 1.0, pk, f_floor_hz, detrend_hz, window_s) for ph, pk in zip(phi, p)])
+
+
+def crossfade_weight(n: int, ts: float, n_minutes: int, k: int, minute_s: float = MINUTE_S) -> np.ndarray:
+    """Weight of minute ``k`` at each sample: linear between minute centres, 1 at its centre; the weights of all minutes sum to 1."""
+    centres = (np.arange(n_minutes) + 0.5) * minute_s
+    return np.interp(np.arange(n) * ts, centres, np.eye(n_minutes)[k])
 
 
 def shaped(white: np.ndarray, ts: float, T: Sequence[float], p: Sequence[float], f_floor_hz: float, minute_s: float = MINUTE_S) -> np.ndarray:
     """``white`` shaped by each minute's ``T f^-p`` and crossfaded between minute centres."""
     n = white.size
     spec = np.fft.rfft(white)
-    weights = crossfade_weights(n, ts, len(T), minute_s)
     out = np.zeros(n)
     for k, (tk, pk) in enumerate(zip(T, p)):
-        out += weights[k] * np.fft.irfft(spec * power_law_filter(n, ts, float(tk), float(pk), f_floor_hz), n=n)
+        out += crossfade_weight(n, ts, len(T), k, minute_s) * np.fft.irfft(spec * power_law_filter(n, ts, float(tk), float(pk), f_floor_hz), n=n)
     return out
 
 
@@ -108,31 +115,34 @@ def index_trace(params: Mapping[str, Any], run: Mapping[str, Any]) -> xr.Dataset
     """The canonical L1 trace (amplitude, phase on ``time``) of one real-index run (:func:`.biscef.strongest_run`).
 
     ``params``: ``seed``, ``name``, ``ts``, ``duration_s``, ``f_floor_hz``,
-    ``detrend_hz``, ``strength`` (:func:`strengths`); the run's minutes must
-    cover ``duration_s``.
+    ``detrend_hz``, ``strength`` (:func:`strengths`) and ``window_s``, the
+    trace's length per real minute (60 s; a shorter one compresses the event
+    in time, which only the smoke build does); the run's minutes must cover
+    ``duration_s``.
     """
     ts = float(params["ts"])
     n = int(round(float(params["duration_s"]) / ts))
-    per = int(round(MINUTE_S / ts))
+    minute_s = float(params.get("window_s", MINUTE_S))
+    per = int(round(minute_s / ts))
     minutes = int(run["minutes"])
     if minutes * per < n:
-        raise ValueError(f"the run holds {minutes} minutes, shorter than the trace's {float(params['duration_s']):g} s")
+        raise ValueError(f"the run holds {minutes} minutes of {minute_s:g} s, shorter than the trace's {float(params['duration_s']):g} s")
     p, s4 = (np.asarray(run[k], dtype=float) for k in ("p", "s4"))
-    T = strengths(run, ts, float(params["f_floor_hz"]), float(params["detrend_hz"]), str(params["strength"]))
+    T = strengths(run, ts, float(params["f_floor_hz"]), float(params["detrend_hz"]), str(params["strength"]), minute_s)
     rng = rng_for(int(params["seed"]), f"index_trace/{params['name']}", 0)
     white_phase, white_amp = rng.standard_normal(n), rng.standard_normal(n)
-    theta = detrend_phase(shaped(white_phase, ts, T, p, float(params["f_floor_hz"])), ts, float(params["detrend_hz"]))
+    theta = detrend_phase(shaped(white_phase, ts, T, p, float(params["f_floor_hz"]), minute_s), ts, float(params["detrend_hz"]))
     if np.any(s4 > 0):
-        g = shaped(white_amp, ts, np.ones_like(p), p, float(params["f_floor_hz"]))
+        g = shaped(white_amp, ts, np.ones_like(p), p, float(params["f_floor_hz"]), minute_s)
         g /= g.std()
-        sigma2 = np.log1p(crossfade_weights(n, ts, minutes).T @ (s4**2))
+        sigma2 = np.log1p(sum(crossfade_weight(n, ts, minutes, k, minute_s) * s4[k] ** 2 for k in range(minutes)))
         rho = np.sqrt(np.exp(np.sqrt(sigma2) * g - sigma2 / 2.0))
     else:
         rho = np.ones(n)
     m = n // per
     trace_phi60 = np.full(minutes, np.nan)
     trace_s4 = np.full(minutes, np.nan)
-    trace_phi60[:m] = window_sigma_phi(theta, ts, per, float(params["detrend_hz"]))
+    trace_phi60[:m] = theta[: m * per].reshape(m, per).std(axis=1)  # theta is high-passed already (sigma_phi's detrending)
     trace_s4[:m] = window_s4(rho**2, per)
     where = f"{run['station_name']} PRN {int(run['prn'])} from {run['start_utc']} UTC"
     minute = ("minute",)
@@ -146,8 +156,8 @@ def index_trace(params: Mapping[str, Any], run: Mapping[str, Any]) -> xr.Dataset
             "trace_T": (minute, T, {"units": "rad2/Hz", "long_name": "T of the trace's spectrum T f^-p"}),
             "real_p": (minute, p, {"units": "1", "long_name": "REAL phase PSD slope (-ps1)"}),
             "real_cn0": (minute, np.asarray(run["cn0"], dtype=float), {"units": "dB-Hz", "long_name": "REAL C/N0 of the minute"}),
-            "trace_phi60": (minute, trace_phi60, {"units": "rad", "long_name": "sigma_phi of the trace over the minute (0.1-Hz high-pass)"}),
-            "trace_s4": (minute, trace_s4, {"units": "1", "long_name": "S4 of the trace over the minute"}),
+            "trace_phi60": (minute, trace_phi60, {"units": "rad", "long_name": "sigma_phi of the trace over its window of the minute (high-passed)"}),
+            "trace_s4": (minute, trace_s4, {"units": "1", "long_name": "S4 of the trace over its window of the minute"}),
             "mean_s4": (("band",), [float(np.nanmean(trace_s4))], {"units": "1", "long_name": "mean of the 60-s S4 of the trace"}),
             "mean_sigma_phi": (("band",), [float(np.nanmean(trace_phi60))], {"units": "rad", "long_name": "mean of the 60-s sigma_phi of the trace"}),
         },

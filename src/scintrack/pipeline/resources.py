@@ -56,6 +56,7 @@ MEASURED: dict[str, tuple[float, float]] = {
     "susi_surrogate": (272.1, 28.7),
     "susi_indices": (332.7, 8.3),
     "susi_biscef_indices": (113.1, 1.6),
+    "susi_index_trace": (308.5, 3.8),
     "susi_jitter_bound": (433.4, 14.5),
     "susi_akf_bandwidth": (275.0, 62.1),  # two scenarios x five AKFs x three Riccati solutions and impulse responses (a loaded machine)
     "susi_readings_loops": (350.8, 49.4),  # Susi readings: two scenarios x six KF PLLs x two impulse responses (21.8 CPU-s, at load 19)

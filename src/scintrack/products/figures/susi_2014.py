@@ -112,8 +112,11 @@ if TYPE_CHECKING:
     import xarray as xr
 
 HIGH, EQUATORIAL = "susi_high_latitude", "susi_equatorial"
+#: the high-latitude scenario on the real-index event, strength from Phi60 (the verdict's) and from Ts1 as given
+EVENT, EVENT_T = "susi_high_latitude_event", "susi_high_latitude_event_T"
 COLOURS = {"susi_pll": "C0", "susi_akf": "C1", "susi_sakf": "C2"}
-WHERE = {HIGH: "high latitude", EQUATORIAL: "equatorial"}
+WHERE = {HIGH: "high latitude", EQUATORIAL: "equatorial", EVENT: "high-latitude real-index event (strength from Phi60)",
+         EVENT_T: "high-latitude real-index event (Ts1 as given)"}
 
 
 def _colour(name: str, k: int) -> str:
@@ -419,7 +422,7 @@ def jitter_figure(res: xr.Dataset, fig_no: int):
     _show_x_ticks(axes)
     fig.suptitle(f"Fig. {fig_no}: phase jitter per {length:g}-s window, {_where(res)} scenario\n"
                  f"mean over {int(res['n_trials'])} trials (error bars: 95% interval, at most $\\pm${widest:.4f} rad, narrower than the "
-                 f"markers)\n{_cond(res)}; {source_text(res)}", fontsize=8.5)
+                 f"markers)\n{_cond(res)}\n{source_text(res)}", fontsize=8.5)
     fig.tight_layout()
     figure_legend(fig, *handles_of(*axes), ncol=2, fontsize=7.5)
     return fig
@@ -472,6 +475,69 @@ def susi_fig05(result):
         tables=("susi_table_jitter", "susi_table_claims"), verdict=_fig08_verdict)
 def susi_fig08(result):
     return jitter_figure(result, 8)
+
+
+@figure("susi_fig05_event", "fig05_jitter_high_latitude_event", paper=PAPER, section=SECTION, inputs=_result_inputs(EVENT),
+        surrogate=_surrogate(EVENT), number="Fig. 5",
+        claim="over 60-s windows both KF PLLs have a lower phase jitter than the 15-Hz PLL (high latitude; here the real-index event)",
+        tables=("susi_table_jitter", "susi_table_claims"), verdict=_fig05_verdict)
+def susi_fig05_event(result):
+    return jitter_figure(result, 5)
+
+
+@figure("susi_fig05_event_T", "fig05_jitter_high_latitude_event_T", paper=PAPER, section=SECTION, inputs=_result_inputs(EVENT_T),
+        surrogate=_surrogate(EVENT_T), number="Fig. 5",
+        claim="over 60-s windows both KF PLLs have a lower phase jitter than the 15-Hz PLL (high latitude; here the real-index event, Ts1 as given)",
+        tables=("susi_table_jitter", "susi_table_claims"), verdict=_fig05_verdict)
+def susi_fig05_event_t(result):
+    return jitter_figure(result, 5)
+
+
+def _event_trace_inputs(config):
+    return {"trace": paths.scenario_trace_path(config, EVENT), "trace_T": paths.scenario_trace_path(config, EVENT_T)}
+
+
+def event_trace_verdict(trace: xr.Dataset, trace_T: xr.Dataset) -> Verdict:
+    """No paper figure: the event and how far each trace's per-minute sigma_phi lies from the real Phi60 (median ratio)."""
+    parts = [f"{ds.attrs['strength']}: trace/real sigma_phi median {np.nanmedian(ds['trace_phi60'].values / ds['real_phi60'].values):.2f}"
+             for ds in (trace, trace_T)]
+    return Verdict("no paper figure", f"{trace.attrs['real_event']}, median real Phi60 {float(trace.attrs['real_median_phi60']):.2f} rad; "
+                                      + "; ".join(parts))
+
+
+@figure("susi_event_trace", "event_trace_real_indices", paper=PAPER, section=SECTION, inputs=_event_trace_inputs,
+        surrogate=lambda config: True, number=None,
+        claim="the high-latitude scenario's strength taken from a real event (the pre-declared 20-minute run)",
+        tables=("susi_table_jitter",), verdict=event_trace_verdict)
+def susi_event_trace(trace: xr.Dataset, trace_T: xr.Dataset):
+    """Per minute of the real event: the real Phi60 and the traces' sigma_phi (top), the real Ts1 and the T of each trace (bottom)."""
+    fig, axes = new_figure(2, 1, figsize=(6.6, 6.0), sharex=True)
+    minute = np.asarray(trace["minute"].values, dtype=float) + 0.5
+    ax = axes[0]
+    ax.plot(minute, trace["real_phi60"].values, "ks-", ms=4, lw=1.0, label=r"REAL $\Phi_{60}$ (receiver, Phi60s1)")
+    ax.plot(minute, trace["trace_phi60"].values, "o-", color="C2", ms=4, lw=1.0, label=r"trace, strength from $\Phi_{60}$: $\sigma_\phi$ per minute")
+    ax.plot(minute, trace_T["trace_phi60"].values, "^-", color="C3", ms=4, lw=1.0, label=r"trace, $T$ as given: $\sigma_\phi$ per minute")
+    ax.set_yscale("log")
+    log_ticks(ax)
+    ax.set_ylabel(r"$\sigma_\phi$ over the minute [rad]")
+    ax.set_title(r"phase scintillation per minute (0.1-Hz high-pass, 60 s)", fontsize=9)
+    ax = axes[1]
+    ax.plot(minute, trace["real_T"].values, "ks-", ms=4, lw=1.0, label="REAL $T$ (Ts1) = the trace's with $T$ as given")
+    ax.plot(minute, trace["trace_T"].values, "o-", color="C2", ms=4, lw=1.0, label=r"$T$ of the trace with strength from $\Phi_{60}$")
+    ax.set_yscale("log")
+    ax.set_ylabel("$T$: phase PSD at 1 Hz [rad$^2$/Hz]")
+    ax.set_xlabel(f"minute of the event (from {trace.attrs['real_start_utc']} UTC)")
+    ax.set_title("strength of the phase spectrum $T f^{-p}$ (each minute's real slope $p$ in both traces)", fontsize=9)
+    ax.set_xticks(np.arange(0, minute.size + 1, 2))
+    _show_x_ticks(axes)
+    fig.suptitle(f"SURROGATE traces driven by REAL indices: {trace.attrs['real_event']}\n"
+                 f"the 20-minute run with the largest median $\\Phi_{{60}}$ ({float(trace.attrs['real_median_phi60']):.2f} rad), every minute "
+                 f">= {min(trace['real_cn0'].values):.0f} dB-Hz", fontsize=8.5)
+    fig.tight_layout()
+    caption(fig, "The real Ts1 does not integrate to the real Phi60 (a one-sided rad^2/Hz spectrum T f^-p above 0.1 Hz gives 2-10 rad): "
+                 "the trace the verdict is read on keeps the real slope p and takes its strength from Phi60.")
+    figure_legend(fig, *handles_of(*axes), ncol=2, fontsize=7.5)
+    return fig
 
 
 # --- Fig. 7: carrier Doppler --------------------------------------------------------------------

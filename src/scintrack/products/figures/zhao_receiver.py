@@ -596,11 +596,26 @@ def verdict_sweep(*points):
         tables=("zhao_table_cn0_sweep",), verdict=verdict_sweep)
 def zhao_sweep(*points):
     s = sweep_summary(points)
-    fig, axes = new_figure(1, 3, figsize=(10.0, 4.0))
+    fig, axes = new_figure(2, 2, figsize=(9.0, 7.0))
+    axes = axes.ravel()
     panels = (("phase_rmse_jammed", "phase RMSE / no-lock RMSE (jammed)"), ("in_lock_jammed", "share of jammed time in lock"),
               ("bit_error_jammed", "share of wrong bit decisions (jammed)"))
     handles = []
-    for ax, (key, label) in zip(axes, panels):
+    freq = s["freq_std_jammed"]
+    for j, tr in enumerate(s["trackers"]):  # the reconstructed carrier frequency's error (Figs. 6, 9 and 10 per trial)
+        m, lo, hi = freq["median"][j], freq["q25"][j], freq["q75"][j]
+        axes[3].errorbar(s["cn0"] + 0.12 * (j - (len(s["trackers"]) - 1) / 2), m, yerr=[m - lo, hi - m], marker="o", ms=3, capsize=2, lw=1,
+                         color=COLORS.get(tr), label=LABELS.get(tr, tr))
+    axes[3].set_yscale("log")
+    log_ticks(axes[3])
+    axes[3].set_ylabel("std of the frequency error [Hz]")
+    for ax, (key, label) in zip(axes, panels + (("", "frequency error (jammed): median, bars = quartiles"),)):
+        if not key:
+            ax.set_xlabel("jammed C/N$_0$ [dB-Hz]")
+            ax.set_xticks(s["cn0"])
+            ax.set_xticklabels([f"{c:g}" for c in s["cn0"]], fontsize=MIN_FONT_PT + 0.5)
+            ax.set_title(label, fontsize=9)
+            continue
         for j, tr in enumerate(s["trackers"]):
             scale = no_lock_rmse(tr) if key == "phase_rmse_jammed" else 1.0
             m, lo, hi = (s[key][w][j] / scale for w in ("mean", "lo", "hi"))
@@ -622,7 +637,7 @@ def zhao_sweep(*points):
     axes[2].set_ylim(-0.02, 0.6)
     p0 = points[0]
     fig.suptitle(f"Where each receiver variant breaks: jammed C/N0 sweep, {int(p0.attrs['n_trials'])} trials x {p0.sizes['prn']} satellites, "
-                 f"mean and 95% interval\nno-lock RMSE: PLL (mod pi) {NO_LOCK_RMSE_PI:.3f} rad, MM (mod 2 pi) {NO_LOCK_RMSE_2PI:.2f} rad; "
+                 f"mean and 95% interval (frequency: median and quartiles)\nno-lock RMSE: PLL (mod pi) {NO_LOCK_RMSE_PI:.3f} rad, MM (mod 2 pi) {NO_LOCK_RMSE_2PI:.2f} rad; "
                  f"markers offset slightly in C/N0 to stay apart ({SYNTHETIC})", fontsize=9)
     fig.tight_layout()
     figure_legend(fig, handles, [h.get_label() for h in handles], ncol=4, fontsize=8)

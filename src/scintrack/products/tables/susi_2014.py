@@ -83,6 +83,8 @@ def source_text(ds: xr.Dataset) -> str:
     name = str(ds.attrs.get("trace_name", "") or ds.attrs.get("scenario", ""))
     if ds.attrs.get("trace_source") == "real":
         return "real JRC Hanoi trace"
+    if "_event" in name:  # scintrack.data.index_trace
+        return "SYNTHETIC SURROGATE phase driven by REAL BiScEF indices (each minute's slope p), not a recording"
     if "high_latitude" in name:
         return "SYNTHETIC SURROGATE phase screen, not the chapter's SPLN/Spirent data"
     if "equatorial" in name:
@@ -530,7 +532,8 @@ def scenario_minutes(ind: xr.Dataset) -> dict[str, np.ndarray]:
 
 
 def scenario_name(ind: xr.Dataset) -> str:
-    where = {"susi_high_latitude": "high-latitude", "susi_equatorial": "equatorial"}.get(str(ind.attrs["scenario"]), str(ind.attrs["scenario"]))
+    where = {"susi_high_latitude": "high-latitude", "susi_equatorial": "equatorial", "susi_high_latitude_event": "real-index event (Phi60)",
+             "susi_high_latitude_event_T": "real-index event (Ts1)"}.get(str(ind.attrs["scenario"]), str(ind.attrs["scenario"]))
     return f"{where} scenario ({short_source(ind)})"
 
 

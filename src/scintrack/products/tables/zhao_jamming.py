@@ -101,6 +101,10 @@ def sweep_summary(points) -> dict[str, dict[str, np.ndarray]]:
     for key in ("phase_rmse_jammed", "in_lock_jammed", "bit_error_jammed", "lol_events"):
         stats = [mean_ci(p[key].values.reshape(p.sizes["tracker"], -1), axis=1) for p in points]
         out[key] = {name: np.array([s[j] for s in stats]).T for j, name in enumerate(("mean", "lo", "hi"))}
+    # the frequency error's spread: a heavy-tailed quantity (kHz for a loop that ran away, sub-Hz in lock), so
+    # median and quartiles over trials x satellites of each trial's std, not a mean
+    q = [np.quantile(np.sqrt(p["freq_var_jammed"].values.reshape(p.sizes["tracker"], -1)), [0.5, 0.25, 0.75], axis=1) for p in points]
+    out["freq_std_jammed"] = {name: np.array([v[j] for v in q]).T for j, name in enumerate(("median", "q25", "q75"))}
     return out
 
 
@@ -114,8 +118,11 @@ def zhao_table_cn0_sweep(*points: xr.Dataset) -> dict:
             row = {"tracker": tr, "jammed C/N0 [dB-Hz]": cn0}
             for key, label in (("phase_rmse_jammed", "phase RMSE [rad]"), ("in_lock_jammed", "time in lock"), ("bit_error_jammed", "wrong bits")):
                 row[label] = estimate_text(s[key]["mean"][j, i], s[key]["lo"][j, i], s[key]["hi"][j, i])
+            f = s["freq_std_jammed"]
+            row["frequency-error std [Hz], median [quartiles]"] = f"{f['median'][j, i]:.3g} [{f['q25'][j, i]:.3g}, {f['q75'][j, i]:.3g}]"
             rows.append(row)
-    note = (f"Mean [95% interval] over {int(points[0].attrs['n_trials'])} trials x {points[0].sizes['prn']} satellites; only the C/N0 after the "
+    note = (f"Mean [95% interval] over {int(points[0].attrs['n_trials'])} trials x {points[0].sizes['prn']} satellites (the frequency-error "
+            "std per trial and satellite: median [quartiles]); only the C/N0 after the "
             "onset changes between points (same geometry, clock, message and noise draws). Synthetic data.")
     return {"table_cn0_sweep": (pd.DataFrame(rows), "Jammed C/N0 sweep: where each receiver variant breaks", note)}
 
