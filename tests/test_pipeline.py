@@ -55,8 +55,8 @@ def test_manifest_lists_every_dataset_with_checksums(smoke_run):
     manifest = json.loads((smoke_run / "data" / "manifest.json").read_text())
     entries = manifest["datasets"]
     # 3 CSM training sets + 3 surrogate events (no real traces configured) + the jammed GPS scenario + its 2 IQ recordings
-    # + the 2 Susi 2014 surrogate traces
-    assert len(entries) == 11
+    # + the 2 Susi 2014 surrogate traces + the 2 traces of the real-index event
+    assert len(entries) == 13
     for e in entries:
         path = smoke_run / e["path"]
         assert e["sha256"] == sha256_file(path)

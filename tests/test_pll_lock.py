@@ -209,7 +209,8 @@ def test_sweep_and_ablation_show_the_pll_fll_variant():
     for cn0 in (15.0, 30.0, 40.0):
         lock = np.where(np.arange(len(trackers))[:, None, None] < 2, float(cn0 >= 30.0), 1.0) * np.ones(shape)
         p = xr.Dataset({"phase_rmse_jammed": (("tracker", "prn", "trial"), np.full(shape, 0.2)), "in_lock_jammed": (("tracker", "prn", "trial"), lock),
-                        "bit_error_jammed": (("tracker", "prn", "trial"), np.zeros(shape)), "lol_events": (("tracker", "prn", "trial"), np.zeros(shape))},
+                        "bit_error_jammed": (("tracker", "prn", "trial"), np.zeros(shape)), "lol_events": (("tracker", "prn", "trial"), np.zeros(shape)),
+                        "freq_var_jammed": (("tracker", "prn", "trial"), np.full(shape, 4.0))},
                        coords={"tracker": trackers, "prn": [1, 11], "trial": np.arange(3)})
         p.attrs.update(cn0_jammed_dbhz=cn0, n_trials=3)
         points.append(p)

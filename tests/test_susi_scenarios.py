@@ -98,7 +98,7 @@ def test_experiment_params_follow_the_trace_settings(config):
     assert hash_object(P.experiment(cfg, "susi_chapter", "susi_high_latitude")) != hash_object(a)
     for exp, sc in (("susi_chapter", "susi_equatorial"), ("case2_steady_state", "s4_0.9_tau0_0.1")):
         assert hash_object(P.experiment(cfg, exp, sc)) == hash_object(P.experiment(config, exp, sc))
-    assert P.susi_scenarios(config) == ["susi_high_latitude", "susi_equatorial"]
+    assert P.susi_scenarios(config) == ["susi_high_latitude", "susi_equatorial", "susi_high_latitude_event", "susi_high_latitude_event_T"]
 
 
 def test_runner_on_a_trace_scenario_reports_jitter_and_total_phase_errors(config):

@@ -122,7 +122,8 @@ def test_sweep_normalises_each_rmse_by_its_own_no_lock_level():
         rmse = np.where(np.arange(len(TRACKERS))[:, None, None] == 0, NO_LOCK_RMSE_PI if pll_lock < 0.5 else 0.1, 0.2) * np.ones(shape)
         lock = np.where(np.arange(len(TRACKERS))[:, None, None] == 0, pll_lock, 1.0) * np.ones(shape)
         p = xr.Dataset({"phase_rmse_jammed": (("tracker", "prn", "trial"), rmse), "in_lock_jammed": (("tracker", "prn", "trial"), lock),
-                        "bit_error_jammed": (("tracker", "prn", "trial"), np.zeros(shape)), "lol_events": (("tracker", "prn", "trial"), np.zeros(shape))},
+                        "bit_error_jammed": (("tracker", "prn", "trial"), np.zeros(shape)), "lol_events": (("tracker", "prn", "trial"), np.zeros(shape)),
+                        "freq_var_jammed": (("tracker", "prn", "trial"), np.full(shape, 4.0))},
                        coords={"tracker": TRACKERS, "prn": [1, 11], "trial": np.arange(3)})
         p.attrs.update(cn0_jammed_dbhz=cn0, n_trials=3)
         points.append(p)

@@ -67,6 +67,7 @@ data an agreement is "reproduced".
 from __future__ import annotations
 
 import math
+import textwrap
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -115,8 +116,7 @@ HIGH, EQUATORIAL = "susi_high_latitude", "susi_equatorial"
 #: the high-latitude scenario on the real-index event, strength from Phi60 (the verdict's) and from Ts1 as given
 EVENT, EVENT_T = "susi_high_latitude_event", "susi_high_latitude_event_T"
 COLOURS = {"susi_pll": "C0", "susi_akf": "C1", "susi_sakf": "C2"}
-WHERE = {HIGH: "high latitude", EQUATORIAL: "equatorial", EVENT: "high-latitude real-index event (strength from Phi60)",
-         EVENT_T: "high-latitude real-index event (Ts1 as given)"}
+WHERE = {HIGH: "high latitude", EQUATORIAL: "equatorial", EVENT: "real-index event (Phi60)", EVENT_T: "real-index event (Ts1)"}
 
 
 def _colour(name: str, k: int) -> str:
@@ -525,6 +525,7 @@ def susi_event_trace(trace: xr.Dataset, trace_T: xr.Dataset):
     ax.plot(minute, trace["real_T"].values, "ks-", ms=4, lw=1.0, label="REAL $T$ (Ts1) = the trace's with $T$ as given")
     ax.plot(minute, trace["trace_T"].values, "o-", color="C2", ms=4, lw=1.0, label=r"$T$ of the trace with strength from $\Phi_{60}$")
     ax.set_yscale("log")
+    log_ticks(ax)
     ax.set_ylabel("$T$: phase PSD at 1 Hz [rad$^2$/Hz]")
     ax.set_xlabel(f"minute of the event (from {trace.attrs['real_start_utc']} UTC)")
     ax.set_title("strength of the phase spectrum $T f^{-p}$ (each minute's real slope $p$ in both traces)", fontsize=9)
@@ -915,7 +916,7 @@ def susi_real_indices(biscef: xr.Dataset, *indices: xr.Dataset):
         ax.set_ylabel("fraction of minutes\nwith a value $\\geq x$", fontsize=8)
         ax.set_title(f"{symbol}: chosen event {float(ev[var]):.3g}{unit}", fontsize=8.5)
     fig.suptitle(f"Real Septentrio scintillation indices, Tromsø and Ny-Ålesund, 2023-01-15 (GPS L1 C/A, elevation $\\geq$ {mask:g}°),\n"
-                 "beside the Susi 2014 scenarios: " + ", ".join(f"{scenario_name(ind)}" for ind in indices), fontsize=9)
+                 + textwrap.fill("beside the Susi 2014 scenarios: " + ", ".join(f"{scenario_name(ind)}" for ind in indices), 100), fontsize=9)
     fig.tight_layout()
     neighbours = event_neighbours(biscef)
     near = (f" The same satellite's $\\Phi_{{60}}$ in the minutes before and after: {', '.join(f'{v:.2f}' for v in neighbours)} rad."

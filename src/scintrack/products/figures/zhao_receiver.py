@@ -612,8 +612,11 @@ def zhao_sweep(*points):
     for ax, (key, label) in zip(axes, panels + (("", "frequency error (jammed): median, bars = quartiles"),)):
         if not key:
             ax.set_xlabel("jammed C/N$_0$ [dB-Hz]")
-            ax.set_xticks(s["cn0"])
-            ax.set_xticklabels([f"{c:g}" for c in s["cn0"]], fontsize=MIN_FONT_PT + 0.5)
+            if len(s["cn0"]) >= 2:
+                ax.set_xticks(s["cn0"])
+                ax.set_xticklabels([f"{c:g}" for c in s["cn0"]], fontsize=MIN_FONT_PT + 0.5)
+            else:  # one point: automatic ticks around it
+                ax.set_xlim(s["cn0"][0] - 2.5, s["cn0"][0] + 2.5)
             ax.set_title(label, fontsize=9)
             continue
         for j, tr in enumerate(s["trackers"]):

@@ -84,7 +84,7 @@ def source_text(ds: xr.Dataset) -> str:
     if ds.attrs.get("trace_source") == "real":
         return "real JRC Hanoi trace"
     if "_event" in name:  # scintrack.data.index_trace
-        return "SYNTHETIC SURROGATE phase driven by REAL BiScEF indices (each minute's slope p), not a recording"
+        return "SYNTHETIC SURROGATE phase, driven by REAL BiScEF indices (each minute's slope p), not a recording"
     if "high_latitude" in name:
         return "SYNTHETIC SURROGATE phase screen, not the chapter's SPLN/Spirent data"
     if "equatorial" in name:
