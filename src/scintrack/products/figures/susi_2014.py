@@ -832,7 +832,7 @@ REAL_AXES = {"phi60": (r"$\Phi_{60}$", " rad", r"$\Phi_{60}$ [rad]", True),
              "T": ("$T$", " rad$^2$/Hz", "$T$: phase PSD at 1 Hz [rad$^2$/Hz]", True),
              "p": ("$p$", "", "$p$: slope of the phase PSD $T f^{-p}$ [no unit]", False)}
 STATION_COLOURS = ("C0", "C1", "C4", "C5")
-SCENARIO_COLOURS = ("C2", "C3", "C6")
+SCENARIO_COLOURS = ("C2", "C3", "C6", "C8", "C9")
 
 
 def exceedance(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
