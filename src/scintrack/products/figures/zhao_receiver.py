@@ -599,29 +599,16 @@ def zhao_sweep(*points):
     fig, axes = new_figure(2, 2, figsize=(9.0, 7.0))
     axes = axes.ravel()
     panels = (("phase_rmse_jammed", "phase RMSE / no-lock RMSE (jammed)"), ("in_lock_jammed", "share of jammed time in lock"),
-              ("bit_error_jammed", "share of wrong bit decisions (jammed)"))
+              ("bit_error_jammed", "share of wrong bit decisions (jammed)"),
+              ("freq_std_jammed", "frequency error (jammed): median, bars = quartiles"))  # the frequency Figs. 6, 9, 10 draw per trial
     handles = []
-    freq = s["freq_std_jammed"]
-    for j, tr in enumerate(s["trackers"]):  # the reconstructed carrier frequency's error (Figs. 6, 9 and 10 per trial)
-        m, lo, hi = freq["median"][j], freq["q25"][j], freq["q75"][j]
-        axes[3].errorbar(s["cn0"] + 0.12 * (j - (len(s["trackers"]) - 1) / 2), m, yerr=[m - lo, hi - m], marker="o", ms=3, capsize=2, lw=1,
-                         color=COLORS.get(tr), label=LABELS.get(tr, tr))
-    axes[3].set_yscale("log")
-    log_ticks(axes[3])
-    axes[3].set_ylabel("std of the frequency error [Hz]")
-    for ax, (key, label) in zip(axes, panels + (("", "frequency error (jammed): median, bars = quartiles"),)):
-        if not key:
-            ax.set_xlabel("jammed C/N$_0$ [dB-Hz]")
-            if len(s["cn0"]) >= 2:
-                ax.set_xticks(s["cn0"])
-                ax.set_xticklabels([f"{c:g}" for c in s["cn0"]], fontsize=MIN_FONT_PT + 0.5)
-            else:  # one point: automatic ticks around it
-                ax.set_xlim(s["cn0"][0] - 2.5, s["cn0"][0] + 2.5)
-            ax.set_title(label, fontsize=9)
-            continue
+    for ax, (key, label) in zip(axes, panels):
         for j, tr in enumerate(s["trackers"]):
-            scale = no_lock_rmse(tr) if key == "phase_rmse_jammed" else 1.0
-            m, lo, hi = (s[key][w][j] / scale for w in ("mean", "lo", "hi"))
+            if key == "freq_std_jammed":
+                m, lo, hi = (s[key][w][j] for w in ("median", "q25", "q75"))
+            else:
+                scale = no_lock_rmse(tr) if key == "phase_rmse_jammed" else 1.0
+                m, lo, hi = (s[key][w][j] / scale for w in ("mean", "lo", "hi"))
             h = ax.errorbar(s["cn0"] + 0.12 * (j - (len(s["trackers"]) - 1) / 2), m, yerr=[m - lo, hi - m], marker="o", ms=3, capsize=2, lw=1,
                             color=COLORS.get(tr), label=LABELS.get(tr, tr))
             if ax is axes[0]:
@@ -633,6 +620,9 @@ def zhao_sweep(*points):
         else:  # one point: automatic ticks around it
             ax.set_xlim(s["cn0"][0] - 2.5, s["cn0"][0] + 2.5)
         ax.set_title(label, fontsize=9)
+    axes[3].set_yscale("log")
+    log_ticks(axes[3])
+    axes[3].set_ylabel("std of the frequency error [Hz]")
     no_lock_level(axes[0], 1.0, label="no lock (each tracker's own level)")
     axes[0].set_ylim(0, 1.25)
     axes[1].set_ylim(-0.03, 1.08)

@@ -128,7 +128,7 @@ import numpy as np
 from scipy import fft, stats
 
 from .ca_code import CHIP_RATE_HZ, CHIPS, ca_code
-from .iq import L1_HZ, MS, samples_per_ms, code_rate_hz
+from .iq import L1_HZ, MS, code_rate_hz, samples_per_ms
 
 if TYPE_CHECKING:
     import pandas as pd
